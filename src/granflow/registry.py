@@ -1,0 +1,61 @@
+"""A minimal registry of interchangeable parts (closures, equilibrium laws, ...).
+
+A TOML or CLI string such as ``closure = "mu_i"`` is a registry key; ``granflow list closures``
+lists the keys. Tests loop over registries, so a part is tested the day it is registered.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Generic, TypeVar
+
+from granflow.errors import UnknownNameError
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    """Name -> class mapping with helpful errors.
+
+    Parameters
+    ----------
+    kind : str
+        What the registry holds, used in error messages (e.g. ``"closure"``).
+    """
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind
+        self._items: dict[str, type[T]] = {}
+
+    def register(self, name: str) -> Callable[[type[T]], type[T]]:
+        """Class decorator registering ``cls`` under ``name`` (sets ``cls.name``)."""
+
+        def deco(cls: type[T]) -> type[T]:
+            if name in self._items:
+                raise ValueError(f"{self.kind} {name!r} is already registered")
+            self._items[name] = cls
+            cls.name = name  # type: ignore[attr-defined]
+            return cls
+
+        return deco
+
+    def get(self, name: str) -> type[T]:
+        """Return the class registered as ``name``; unknown names raise :class:`UnknownNameError`."""
+        try:
+            return self._items[name]
+        except KeyError:
+            raise UnknownNameError(
+                f"unknown {self.kind} {name!r}; expected one of: {', '.join(self.names())}"
+            ) from None
+
+    def names(self) -> list[str]:
+        """Registered names, sorted."""
+        return sorted(self._items)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._items
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names())
+
+    def __len__(self) -> int:
+        return len(self._items)
