@@ -1,0 +1,199 @@
+"""Handlers of the ``granflow`` sub-commands (argparse namespace in, exit code out).
+
+Heavy imports (SymPy derivation, SciPy eigen-solvers, matplotlib) happen inside the handlers.
+"""
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from granflow.cli import ExitCode, _json
+from granflow.cli.overrides import parse_overrides
+from granflow.errors import GranflowInputError
+
+_BASE_FIELDS = {"material", "equilibrium"}
+
+
+def _field_table(cls) -> dict[str, dict[str, Any]]:
+    out = {}
+    for name, field in cls.model_fields.items():
+        if name in _BASE_FIELDS:
+            continue
+        default = field.default
+        if hasattr(default, "value"):
+            default = default.value
+        if isinstance(default, tuple):
+            default = list(default)
+        out[name] = {"default": default, "description": field.description or ""}
+    return out
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    from granflow.equilibrium import EQUILIBRIUM_LAWS
+    from granflow.rheology import CLOSURES
+
+    if args.what == "closures":
+        data = {
+            n: {
+                "summary": CLOSURES.get(n).summary,
+                "reference": CLOSURES.get(n).reference,
+                "source": CLOSURES.get(n).source,
+                "parameters": _field_table(CLOSURES.get(n)),
+            }
+            for n in CLOSURES
+        }
+    else:
+        data = {
+            n: {"formula": EQUILIBRIUM_LAWS.get(n).formula, "parameters": _field_table(EQUILIBRIUM_LAWS.get(n))}
+            for n in EQUILIBRIUM_LAWS
+        }
+    if args.json:
+        print(_json(data))
+        return ExitCode.OK
+    for name, info in data.items():
+        head = info.get("summary") or info.get("formula")
+        tag = "  [reference]" if info.get("reference") else ""
+        print(f"{name}{tag}\n    {head}")
+        for pname, p in info["parameters"].items():
+            print(f"    {pname} = {p['default']!r}  {p['description']}")
+    return ExitCode.OK
+
+
+def closure_from_args(args: argparse.Namespace):
+    """Build the closure named on the command line with its ``--set`` overrides."""
+    from granflow.rheology import make_closure
+
+    ov = parse_overrides(args.set)
+    return make_closure(
+        args.closure,
+        material=ov["material"] or None,
+        equilibrium=args.equilibrium,
+        equilibrium_params=ov["equilibrium"],
+        **ov["closure"],
+    )
+
+
+def _all_pass(report_dict: dict) -> bool:
+    return all(c["pass"] for c in report_dict["conditions"].values())
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    closure = closure_from_args(args)
+    from granflow.theory.conditions import check
+
+    report = check(closure)
+    data = report.to_dict()
+    if args.plot:
+        from granflow import plotting
+
+        plotting.closure_overview(closure, args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        print(_json(data))
+    else:
+        print(report.summary_table())
+        if args.plot:
+            print(f"figure written to {args.plot}")
+    if args.strict and not _all_pass(data):
+        return ExitCode.FAILED
+    return ExitCode.OK
+
+
+def cmd_window(args: argparse.Namespace) -> int:
+    for name in ("mu1", "mu2", "I0", "c_I"):
+        if not getattr(args, name) > 0:
+            raise GranflowInputError(f"--{name.replace('_', '-')} must be positive (got {getattr(args, name)})")
+    if not args.mu2 > args.mu1:
+        raise GranflowInputError(f"--mu2 ({args.mu2}) must exceed --mu1 ({args.mu1})")
+    from granflow.theory.barker import barker_window
+
+    window = barker_window(args.mu1, args.mu2, args.I0, c_I=args.c_I)
+    data = window.to_dict()
+    if args.json:
+        print(_json(data))
+    else:
+        for k, v in data.items():
+            print(f"{k:>20}: {v}")
+    return ExitCode.OK
+
+
+def cmd_dispersion(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    closure = closure_from_args(args)
+    if not args.p > 0:
+        raise GranflowInputError(f"--p must be positive (got {args.p})")
+    if not args.I > 0:
+        raise GranflowInputError(f"--I must be positive (got {args.I})")
+    phi = args.phi if args.phi is not None else float(closure.equilibrium.phi_eq(args.I))
+    if not 0 < phi < 1:
+        raise GranflowInputError(f"--phi must be in (0, 1) (got {phi})")
+    from granflow.theory import dispersion
+
+    lead = dispersion.leading_order_max_growth(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
+    best = dispersion.most_unstable(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
+    curve = dispersion.growth_curve(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
+    data = {
+        "closure": closure.name,
+        "parameters": closure.parameters(),
+        "base_state": {"phi": phi, "p": args.p, "I": args.I, "p_f": args.p_f, "gas": args.gas},
+        "leading_order": lead.to_dict(),
+        "most_unstable": best.to_dict(),
+        "growth_curve": curve.to_dict(),
+    }
+    if args.plot:
+        from granflow import plotting
+
+        plotting.growth_figure(curve, args.plot, title=f"{closure.name}: phi={phi:.4g}, p={args.p:g} Pa, I={args.I:g}")
+        data["plot"] = args.plot
+    if args.json:
+        print(_json(data))
+    else:
+        ld, mu = data["leading_order"], data["most_unstable"]
+        print(f"closure {closure.name} about simple shear phi={phi:.6g}, p={args.p:g} Pa, I={args.I:g}")
+        print(f"  leading order (k->inf): max Lambda = lambda/k^2 = {ld['max_growth']:.6g} m^2/s "
+              f"in direction theta = {np.degrees(ld['theta']):.2f} deg")
+        print(f"  finite k: max growth {mu['growth_rate']:.6g} 1/s at k = {mu['k']:.4g} 1/m, "
+              f"theta = {np.degrees(mu['theta']):.2f} deg")
+        print("  verdict: " + ("unbounded growth as k -> inf (ill-posed)" if ld["max_growth"] > ld.get("tolerance", 0)
+                               else "bounded growth (well posed at high wavenumber)"))
+        if args.plot:
+            print(f"figure written to {args.plot}")
+    return ExitCode.OK
+
+
+def cmd_derive(args: argparse.Namespace) -> int:
+    import sympy as sp
+
+    from granflow.rheology import derive_dilatancy, make_closure
+
+    derivation = derive_dilatancy(args.expression)
+    ov = parse_overrides(args.set)
+    if ov["closure"]:
+        raise GranflowInputError(
+            f"derive: unexpected closure parameter(s) {', '.join(ov['closure'])}; only material.* and equilibrium.*"
+        )
+    closure = make_closure(
+        "generic", material=ov["material"] or None, equilibrium=args.equilibrium,
+        equilibrium_params=ov["equilibrium"], expression=args.expression,
+    )
+    from granflow.theory.conditions import check
+
+    report = check(closure)
+    data = {
+        "Z": str(derivation.Z),
+        "f": str(derivation.f),
+        "f_latex": sp.latex(derivation.f),
+        "W": str(sp.simplify(derivation.W)),
+        "note": "f in terms of phi, I and I_eq = I_eq(phi) of the chosen equilibrium law (eq. f-general)",
+        "check": report.to_dict(),
+    }
+    if args.json:
+        print(_json(data))
+    else:
+        print(f"Z(phi, I) = {data['Z']}")
+        print(f"f(phi, p, I) = {data['f']}")
+        print(f"  LaTeX: {data['f_latex']}")
+        print(f"  (I_eq = I_eq(phi), equilibrium law {args.equilibrium!r})")
+        print(report.summary_table())
+    return ExitCode.OK

@@ -1,0 +1,78 @@
+"""Figures (matplotlib, imported lazily, Agg backend): closure curves, well-posedness maps,
+growth rates. Nothing in the core imports this module."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+#: Pressure [Pa] at which closure curves and maps are drawn unless told otherwise.
+DEFAULT_PRESSURE = 1000.0
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def closure_curves(closure, ax_z, ax_f, phis=None, p: float = DEFAULT_PRESSURE, ratio=(1e-2, 1e2)):
+    """Draw Z and f against I/I_eq(phi) for a few phi on the given axes."""
+    if phis is None:
+        phis = closure.equilibrium.phi_eq(np.array([1e-3, 1e-2, 1e-1]))
+    r = np.logspace(np.log10(ratio[0]), np.log10(ratio[1]), 400)
+    for phi in np.atleast_1d(phis):
+        Ieq = float(closure.I_eq(phi))
+        I = r * Ieq
+        label = f"phi={float(phi):.4f} (I_eq={Ieq:.2g})"
+        ax_z.semilogx(r, closure.Z(phi, I), label=label)
+        ax_f.semilogx(r, closure.f(phi, p, I), label=label)
+    for ax, name in ((ax_z, "Z"), (ax_f, "f")):
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.axvline(1.0, color="k", lw=0.5, ls=":")
+        ax.set_xlabel("I / I_eq(phi)")
+        ax.set_ylabel(name)
+    ax_f.set_ylim(-2.0, 2.0)
+    ax_z.legend(fontsize="small")
+
+
+def condition_map_axes(closure, ax, p: float = DEFAULT_PRESSURE, n: int = 120):
+    """Shade, on a (I, phi) mesh at pressure p, the region where every condition of the checker
+    holds (white) and colour the failures by the first failing condition."""
+    from granflow.theory.conditions import condition_map
+
+    phi_max = closure.material.phi_max
+    phi = np.linspace(phi_max - 0.5 * closure.material.delta_phi, phi_max * (1 - 1e-6), n)
+    I = np.logspace(-5, 1, n)
+    maps = condition_map(closure, phi, I, p)
+    names = list(maps)
+    code = np.zeros((phi.size, I.size))
+    for k, name in enumerate(names, start=1):
+        fail = ~np.asarray(maps[name], dtype=bool)
+        code = np.where((code == 0) & fail, k, code)
+    cmap = _pyplot().get_cmap("tab10", len(names) + 1)
+    mesh = ax.pcolormesh(I, phi, code, cmap=cmap, vmin=-0.5, vmax=len(names) + 0.5, shading="auto")
+    ax.set_xscale("log")
+    ax.plot(I, closure.equilibrium.phi_eq(I), "k--", lw=1, label="phi_eq(I)")
+    ax.set_xlabel("I")
+    ax.set_ylabel("phi")
+    ax.set_ylim(phi[0], phi_max)
+    ax.set_title(f"conditions at p = {p:g} Pa (0 = all hold)", fontsize="small")
+    cb = ax.figure.colorbar(mesh, ax=ax, ticks=range(len(names) + 1))
+    cb.ax.set_yticklabels(["all hold"] + [f"fails {n}" for n in names], fontsize="x-small")
+    ax.legend(fontsize="small", loc="lower left")
+
+
+def closure_overview(closure, path: str | Path, p: float = DEFAULT_PRESSURE):
+    """Write a three-panel figure: Z and f against I/I_eq, and the well-posedness map."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
+    closure_curves(closure, axes[0], axes[1], p=p)
+    condition_map_axes(closure, axes[2], p=p)
+    fig.suptitle(f"{closure.name} {closure.parameters()}", fontsize="small")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
