@@ -77,10 +77,11 @@ def test_window_json_matches_criterion(capsys):
 
 
 def test_dispersion_text_and_json(capsys):
-    code, out, _ = run(capsys, "stability", "dispersion", "roux_radjai", "--I", "0.01", "--p", "1000", "--json")
+    code, out, _ = run(capsys, "stability", "dispersion", "roux_radjai", "--I", "0.001", "--p", "1000", "--json")
     assert code == ExitCode.OK
     data = json.loads(out)
-    assert data["leading_order"]["max_growth"] > 0  # Roux-Radjai: unbounded growth at high k
+    assert data["leading_order"]["growth"] > 0  # Roux-Radjai (mu(I) yield, low I): unbounded growth at high k
+    assert data["leading_order"]["well_posed"] is False
     code, out, _ = run(capsys, "stability", "dispersion", "mu_i", "--I", "0.01")
     assert code == ExitCode.OK
     assert "bounded growth" in out

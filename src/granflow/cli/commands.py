@@ -12,6 +12,9 @@ from granflow.cli.overrides import parse_overrides
 from granflow.errors import GranflowInputError
 
 _BASE_FIELDS = {"material", "equilibrium"}
+#: Wavenumber and direction samples of ``granflow stability dispersion``.
+DISPERSION_K_POINTS = 25
+DISPERSION_THETA_POINTS = 36
 
 
 def _field_table(cls) -> dict[str, dict[str, Any]]:
@@ -131,8 +134,10 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
     from granflow.theory import dispersion
 
     lead = dispersion.leading_order_max_growth(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
-    best = dispersion.most_unstable(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
-    curve = dispersion.growth_curve(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
+    k_values = np.logspace(0.0, np.log10(2.0 * np.pi / closure.material.d), DISPERSION_K_POINTS)
+    thetas = np.linspace(0.0, np.pi, DISPERSION_THETA_POINTS, endpoint=False)
+    best = dispersion.most_unstable(closure, phi, args.p, args.I, k_values, thetas, p_f=args.p_f, gas=args.gas)
+    curve = dispersion.growth_curve(closure, phi, args.p, args.I, k_values, thetas, p_f=args.p_f, gas=args.gas)
     data = {
         "closure": closure.name,
         "parameters": closure.parameters(),
@@ -140,26 +145,39 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
         "leading_order": lead.to_dict(),
         "most_unstable": best.to_dict(),
         "growth_curve": curve.to_dict(),
+        "units": {"p": "Pa", "p_f": "Pa", "leading_order.growth": "m^2/s", "most_unstable.growth": "1/s",
+                  "k": "1/m", "theta": "rad"},
     }
     if args.plot:
         from granflow import plotting
 
-        plotting.growth_figure(curve, args.plot, title=f"{closure.name}: phi={phi:.4g}, p={args.p:g} Pa, I={args.I:g}")
+        plotting.growth_figure(lead, curve, args.plot,
+                               title=f"{closure.name}: phi={phi:.4g}, p={args.p:g} Pa, I={args.I:g}")
         data["plot"] = args.plot
     if args.json:
         print(_json(data))
     else:
-        ld, mu = data["leading_order"], data["most_unstable"]
-        print(f"closure {closure.name} about simple shear phi={phi:.6g}, p={args.p:g} Pa, I={args.I:g}")
-        print(f"  leading order (k->inf): max Lambda = lambda/k^2 = {ld['max_growth']:.6g} m^2/s "
-              f"in direction theta = {np.degrees(ld['theta']):.2f} deg")
-        print(f"  finite k: max growth {mu['growth_rate']:.6g} 1/s at k = {mu['k']:.4g} 1/m, "
-              f"theta = {np.degrees(mu['theta']):.2f} deg")
-        print("  verdict: " + ("unbounded growth as k -> inf (ill-posed)" if ld["max_growth"] > ld.get("tolerance", 0)
-                               else "bounded growth (well posed at high wavenumber)"))
+        print(f"closure {closure.name} about uniform simple shear: phi={phi:.6g}, p={args.p:g} Pa, I={args.I:g}, "
+              f"p_f={args.p_f:g} Pa ({args.gas} gas law)")
+        print(f"  leading order (k -> inf): max lambda/k^2 = {lead.growth:.4g} m^2/s "
+              f"({lead.growth / lead.scale:.3g} x eta/(phi rho_s)) at theta = {np.degrees(lead.theta):.2f} deg")
+        print(f"  finite k: max growth {best.growth:.4g} 1/s at k = {best.k:.4g} 1/m, "
+              f"theta = {np.degrees(best.theta):.2f} deg" + (" (at the largest k scanned)" if best.at_largest_k else ""))
+        print("  verdict: " + _verdict(lead))
         if args.plot:
             print(f"figure written to {args.plot}")
     return ExitCode.OK
+
+
+def _verdict(lead) -> str:
+    """Plain-language reading of the leading-order growth (tolerance: 1e-10 of eta/(phi rho_s))."""
+    tol = 1e-10 * lead.scale
+    if lead.growth > tol:
+        return "growth ~ k^2 without bound (ill posed)"
+    if lead.growth >= -tol:
+        return ("marginal at leading order (zero growth along one direction): lower-order terms decide; "
+                "see the finite-k growth above")
+    return "bounded growth (well posed at high wavenumber)"
 
 
 def cmd_derive(args: argparse.Namespace) -> int:
