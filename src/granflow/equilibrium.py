@@ -96,7 +96,8 @@ class SchaefferEquilibrium(EquilibriumLaw):
 
     def phi_eq(self, I):
         I = np.asarray(I, dtype=float)
-        return self.phi_max - self.delta_phi * I / (1.0 + I)
+        with np.errstate(invalid="ignore"):
+            return self.phi_max - self.delta_phi * np.where(np.isinf(I), 1.0, I / (1.0 + I))
 
     def I_eq(self, phi):
         x = _gap(self, phi)
@@ -150,12 +151,15 @@ class BreardEquilibrium(EquilibriumLaw):
         return self.phi_max / (1.0 + np.asarray(I, dtype=float))
 
     def I_eq(self, phi):
+        """phi_max/phi - 1; inf at phi = 0 (an empty cell), 0 for phi >= phi_max."""
         phi = np.minimum(np.asarray(phi, dtype=float), self.phi_max)
-        return self.phi_max / phi - 1.0
+        with np.errstate(divide="ignore"):
+            return self.phi_max / phi - 1.0
 
     def dI_eq_dphi(self, phi):
         phi = np.asarray(phi, dtype=float)
-        return np.where(phi < self.phi_max, -self.phi_max / phi**2, 0.0)
+        with np.errstate(divide="ignore"):
+            return np.where(phi < self.phi_max, -self.phi_max / phi**2, 0.0)
 
     def dphi_eq_dI(self, I):
         return -self.phi_max / (1.0 + np.asarray(I, dtype=float)) ** 2

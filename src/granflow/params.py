@@ -25,14 +25,14 @@ def format_validation_error(err: ValidationError, context: str = "") -> str:
     """One line naming each offending key path and what was expected."""
     parts = []
     for e in err.errors():
-        loc = ".".join(str(x) for x in e["loc"]) or "(value)"
-        if context:
-            loc = f"{context}.{loc}"
-        msg = e["msg"]
+        loc = ".".join(str(x) for x in e["loc"])
+        loc = ".".join(part for part in (context, loc) if part) or "(value)"
+        msg = e["msg"].removeprefix("Value error, ")
         if e["type"] == "extra_forbidden":
             msg = "unknown parameter"
         inp = e.get("input")
-        shown = "" if e["type"] in ("extra_forbidden", "missing") else f" (got {inp!r})"
+        # Whole-model validators (empty loc) receive the whole input: do not echo it.
+        shown = "" if e["type"] in ("extra_forbidden", "missing") or not e["loc"] else f" (got {inp!r})"
         parts.append(f"{loc}: {msg}{shown}")
     return "; ".join(parts)
 

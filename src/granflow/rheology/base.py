@@ -152,8 +152,11 @@ class Closure(Params):
         phi, p, S = _arr(phi), _arr(p), _arr(S)
         I = self.material.inertial_number(S, p)
         with np.errstate(invalid="ignore", over="ignore"):
-            shear = np.where(S > 0, 2.0 * S * self.A(phi, I), 0.0)
-        return shear - self.compaction_coefficient(phi) * np.sqrt(np.maximum(p, 0.0))
+            shear = np.where(S <= 0, 0.0, 2.0 * S * self.A(phi, I))
+            # 0 at p = 0 even where G = inf (I_eq = inf, e.g. Schaeffer's law below phi_max - delta_phi);
+            # the "<= 0" tests let NaN propagate.
+            compaction = np.where(p <= 0, 0.0, self.compaction_coefficient(phi) * np.sqrt(np.maximum(p, 0.0)))
+        return shear - compaction
 
     def dissipation_density(self, phi, p, S):
         """Local dissipation rate 2 (Z - f) p |S| + 2 eta_visc |S|^2 [W m^-3] (eq.
@@ -161,8 +164,8 @@ class Closure(Params):
         phi, p, S = _arr(phi), _arr(p), _arr(S)
         I = self.material.inertial_number(S, p)
         with np.errstate(invalid="ignore", over="ignore"):
-            yield_part = np.where((S > 0) & (p > 0), 2.0 * self.Z(phi, I) * p * S, 0.0)
-            dil = np.where(p > 0, p * self.div_rate(phi, p, S), 0.0)
+            yield_part = np.where((S <= 0) | (p <= 0), 0.0, 2.0 * self.Z(phi, I) * p * S)
+            dil = np.where(p <= 0, 0.0, p * self.div_rate(phi, p, S))
         return yield_part - dil + 2.0 * self.eta_visc * S**2
 
     def parameters(self) -> dict[str, Any]:

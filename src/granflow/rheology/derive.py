@@ -38,7 +38,8 @@ def parse_yield_function(text: str) -> sp.Expr:
     """Parse a yield function Z written in ``phi`` and ``I`` (e.g. ``"0.4 + 0.2*I/(I + 0.3)"``).
 
     ``^`` means power. Only the symbols ``phi`` and ``I`` and elementary functions (sqrt, exp,
-    log/ln, sin, cos, tan, atan, tanh) are accepted.
+    log/ln, sin, cos, tan, atan, tanh) are accepted. Decimal numbers are converted to exact
+    rationals.
 
     Raises
     ------
@@ -62,6 +63,10 @@ def parse_yield_function(text: str) -> sp.Expr:
         raise GranflowInputError(f"yield function {text!r} does not parse: {err}") from None
     if not isinstance(expr, sp.Expr):
         raise GranflowInputError(f"yield function {text!r} is not an expression")
+    # Decimal numbers become exact rationals (0.26 -> 13/50), so that the integration constants of
+    # W cancel exactly and the limits of W at I = 0 and I = inf are exact (with floats,
+    # 0.117*log(0.3) - 0.140864818106135 leaves a 1e-17/I term and a spurious limit -inf).
+    expr = sp.nsimplify(expr, rational=True)
     extra = expr.free_symbols - {phi, I}
     if extra:
         names = ", ".join(sorted(str(s) for s in extra))

@@ -120,15 +120,31 @@ class DruckerPragerDilatancy(DruckerPragerYield):
             return self._K * self.beta * self._ratio(phi, I) ** self.beta / _arr(I)
 
     def dA_dphi(self, phi, I):
+        """d psi/d phi [-]; 0 where I_eq is clipped at 0 (phi >= phi_max: right derivative)."""
         Ieq = np.maximum(self.I_eq(phi), 0.0)
-        dIeq = np.where(self.I_eq(phi) > 0, self.equilibrium.dI_eq_dphi(phi), 0.0)
+        dIeq = self.equilibrium.dI_eq_dphi(phi)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            return -self._K * self.beta * Ieq ** (self.beta - 1.0) * dIeq / _arr(I) ** self.beta
+            d = -self._K * self.beta * Ieq ** (self.beta - 1.0) * dIeq / _arr(I) ** self.beta
+        return np.where(Ieq == 0, 0.0, d)
+
+    def _compaction_part(self, phi, p, S):
+        """X = |S|^(1-beta) q^beta = |S| (I_eq/I)^beta, q = I_eq sqrt(p/rho_s)/(c_I d) [s^-1];
+        0 at |S| = 0 or p = 0 (also where I_eq = inf), +inf where I_eq = inf < |S| p."""
+        phi, p, S = _arr(phi), _arr(p), _arr(S)
+        Ieq = np.maximum(self.I_eq(phi), 0.0)
+        b = self.beta
+        with np.errstate(invalid="ignore", over="ignore"):
+            q = np.where(p <= 0, 0.0, Ieq * self.material.shear_rate_scale(np.maximum(p, 0.0)))
+            return np.where((S <= 0) | (q == 0), 0.0, np.maximum(S, 0.0) ** (1.0 - b) * q**b)
 
     def div_rate(self, phi, p, S):
         """2|S| psi in closed form: 2K(|S| - |S|^(1-beta) q^beta), q = I_eq sqrt(p/rho_s)/(c_I d),
         finite at |S| = 0 and p = 0 [s^-1]."""
-        phi, p, S = _arr(phi), _arr(p), _arr(S)
-        q = np.maximum(self.I_eq(phi), 0.0) * self.material.shear_rate_scale(np.maximum(p, 0.0))
-        b = self.beta
-        return 2.0 * self._K * (S - S ** (1.0 - b) * q**b)
+        return 2.0 * self._K * (_arr(S) - self._compaction_part(phi, p, S))
+
+    def dissipation_density(self, phi, p, S):
+        """2 (Z - f) p |S| + 2 eta_visc |S|^2 with Z - f = sin(delta) (I_eq/I)^beta (paper, §6.4.1):
+        2 sin(delta) p |S|^(1-beta) q^beta + 2 eta_visc |S|^2 [W m^-3], finite everywhere."""
+        p, S = _arr(p), _arr(S)
+        return 2.0 * self.sin_delta * np.maximum(p, 0.0) * self._compaction_part(phi, p, S) \
+            + 2.0 * self.eta_visc * S**2

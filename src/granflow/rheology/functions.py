@@ -16,7 +16,8 @@ def mu_of_I(I, mu1: float, mu2: float, I0: float):
     """Friction law mu(I) = mu1 + (mu2 - mu1) / (1 + I0/I) [-] (paper eq. mu(I)); mu(0) = mu1,
     mu(inf) = mu2."""
     I = np.asarray(I, dtype=float)
-    return mu1 + (mu2 - mu1) * I / (I + I0)
+    with np.errstate(invalid="ignore"):
+        return mu1 + (mu2 - mu1) * np.where(np.isinf(I), 1.0, I / (I + I0))
 
 
 def dmu_dI(I, mu1: float, mu2: float, I0: float):

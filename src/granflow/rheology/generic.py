@@ -5,7 +5,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 import sympy as sp
-from pydantic import Field, PrivateAttr
+from pydantic import Field, PrivateAttr, field_validator
 
 from granflow.rheology.base import CLOSURES, Closure, _arr
 from granflow.rheology.derive import I, derive_dilatancy, parse_yield_function, phi
@@ -37,6 +37,13 @@ class Generic(Closure):
     expression: str = Field("0.4 + 0.2*I", description="yield function Z(phi, I) [-]")
 
     _fns: dict[str, Any] = PrivateAttr(default_factory=dict)
+
+    @field_validator("expression")
+    @classmethod
+    def _parsable(cls, text: str) -> str:
+        """Reject an unparsable expression here, so that the error names the key ``expression``."""
+        parse_yield_function(text)  # GranflowInputError is a ValueError: reported at this key
+        return text
 
     def model_post_init(self, __context: Any) -> None:
         Zs = parse_yield_function(self.expression)
@@ -92,12 +99,20 @@ class Generic(Closure):
     def dA_dphi(self, phi_, I_):
         return self._eval("dW_dphi", phi_, I_)
 
+    def _clipped_I_eq(self, phi_):
+        """I_eq clipped at 0 (phi >= phi_max), as for the power-law closure: Z need not be defined
+        at negative I."""
+        return np.maximum(self.I_eq(phi_), 0.0)
+
     def B(self, phi_):
-        Ieq = self.I_eq(phi_)
-        return Ieq * self._eval("W", phi_, Ieq)
+        Ieq = self._clipped_I_eq(phi_)
+        with np.errstate(invalid="ignore"):
+            return np.where(Ieq == 0, 0.0, Ieq * self._eval("W", phi_, Ieq))
 
     def dB_dphi(self, phi_):
-        Ieq = self.I_eq(phi_)
+        Ieq = self._clipped_I_eq(phi_)
         dIeq = self.equilibrium.dI_eq_dphi(phi_)
-        W = self._eval("W", phi_, Ieq)
-        return (W + Ieq * self._eval("dW_dI", phi_, Ieq)) * dIeq + Ieq * self._eval("dW_dphi", phi_, Ieq)
+        with np.errstate(invalid="ignore"):
+            W = self._eval("W", phi_, Ieq)
+            d = (W + Ieq * self._eval("dW_dI", phi_, Ieq)) * dIeq + Ieq * self._eval("dW_dphi", phi_, Ieq)
+        return np.where(Ieq == 0, 0.0, d)

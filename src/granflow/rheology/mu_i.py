@@ -140,6 +140,15 @@ class MuIDilatancy(MuIYield):
         with np.errstate(divide="ignore", invalid="ignore"):
             log_ratio = np.log(np.where(finite, I, 1.0)) - np.log(np.where(finite, Ieq, 1.0))
             psi = (2.0 * self.mu1 / 3.0) * log_ratio + (self.mu2 - self.mu1) / 3.0 * (
-                robinson_h(np.where(finite, I, 0.0) / self.I0) - robinson_h(Ieq / self.I0)
+                robinson_h(np.where(finite, I, 0.0) / self.I0) - robinson_h(np.where(finite, Ieq, 0.0) / self.I0)
             )
-        return np.where(finite, 2.0 * S * psi, np.where(S > 0, np.inf, 0.0))
+        out = np.where(finite, 2.0 * S * psi, np.where(S > 0, np.inf, 0.0))
+        return np.where(np.isnan(S) | np.isnan(p) | np.isnan(Ieq), np.nan, out)
+
+    def dissipation_density(self, phi, p, S):
+        """2 (Z - f) p |S| + 2 eta_visc |S|^2 with Z - f = mu(I) exactly (paper §6.4.2) [W m^-3];
+        finite also where psi is infinite (I_eq = 0 or inf)."""
+        phi, p, S = _arr(phi), _arr(p), _arr(S)
+        I = self.material.inertial_number(S, p)
+        yield_part = np.where((S <= 0) | (p <= 0), 0.0, 2.0 * self.mu(I) * p * S)
+        return yield_part + 2.0 * self.eta_visc * S**2 + np.zeros_like(phi)

@@ -9,6 +9,7 @@ negative f coefficient and a negative dissipation at small I (Remark rem-viscous
 """
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
@@ -53,47 +54,64 @@ class PowerLaw(Closure):
         return self
 
     def _terms(self):
-        return zip(self.exponents, self.coefficients)
+        """(n_k, c_k) of Z, without zero coefficients (0 * I^n would be NaN at I = inf)."""
+        return [(n, c) for n, c in zip(self.exponents, self.coefficients) if c != 0]
+
+    def _f_terms(self):
+        """(n_k, c_k (2 - n_k)/(2(n_k + 1))) of A = W, without the zero ones (n = 2 gives f = 0:
+        Remark rem-viscous3; keeping it would give 0 * inf = NaN at I = inf, i.e. at p = 0)."""
+        return [(n, c * table1_coefficient(n)) for n, c in self._terms() if table1_coefficient(n) != 0]
 
     @staticmethod
-    def _pow(I, n):
-        I = _arr(I)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(I == 0, 1.0 if n == 0 else (0.0 if n > 0 else np.inf), I**n)
+    def _limit(terms, at_infinity: bool) -> float:
+        """Value of sum k I^n at I = inf (or I = 0): the dominant power's sign times inf, or the
+        constant term when no power grows there (avoids inf - inf and 0 * inf)."""
+        by_power: dict[float, float] = {}
+        for n, k in terms:
+            by_power[n] = by_power.get(n, 0.0) + k
+        growing = sorted((n for n in by_power if (n > 0) == at_infinity and n != 0),
+                         key=abs, reverse=True)
+        for n in growing:
+            if by_power[n] != 0:
+                return math.copysign(math.inf, by_power[n])
+        return by_power.get(0.0, 0.0)
+
+    def _series(self, terms, phi, I):
+        """sum_k k I^n over terms (n, k), vectorised, exact limits at I = 0 and I = inf."""
+        shape = np.broadcast(_arr(phi), _arr(I)).shape
+        I = np.broadcast_to(_arr(I), shape)
+        ends = (I == 0) | (I == np.inf)
+        Ir = np.where(ends, 1.0, I)  # NaN (and negative I with fractional powers) stay NaN
+        total = sum((k * Ir**n for n, k in terms), np.zeros(shape))
+        return np.where(I == 0, self._limit(terms, at_infinity=False),
+                        np.where(I == np.inf, self._limit(terms, at_infinity=True), total))
 
     def Z(self, phi, I):
-        shape = np.broadcast(_arr(phi), _arr(I)).shape
-        return sum((c * self._pow(I, n) for n, c in self._terms()), np.zeros(shape))
+        return self._series(self._terms(), phi, I)
 
     def dZ_dI(self, phi, I):
-        shape = np.broadcast(_arr(phi), _arr(I)).shape
-        return sum((c * n * self._pow(I, n - 1) for n, c in self._terms() if n != 0), np.zeros(shape))
+        return self._series([(n - 1, c * n) for n, c in self._terms() if n != 0], phi, I)
 
     def dZ_dphi(self, phi, I):
         return np.zeros(np.broadcast(_arr(phi), _arr(I)).shape)
 
     def A(self, phi, I):
-        shape = np.broadcast(_arr(phi), _arr(I)).shape
-        return sum((c * table1_coefficient(n) * self._pow(I, n) for n, c in self._terms()), np.zeros(shape))
+        return self._series(self._f_terms(), phi, I)
 
     def dA_dI(self, phi, I):
-        shape = np.broadcast(_arr(phi), _arr(I)).shape
-        return sum(
-            (c * table1_coefficient(n) * n * self._pow(I, n - 1) for n, c in self._terms() if n != 0),
-            np.zeros(shape),
-        )
+        return self._series([(n - 1, k * n) for n, k in self._f_terms() if n != 0], phi, I)
 
     def dA_dphi(self, phi, I):
         return np.zeros(np.broadcast(_arr(phi), _arr(I)).shape)
 
     def B(self, phi):
+        """B = sum_k c_k c(n_k) I_eq^(n_k+1), I_eq clipped at 0; exact limit where I_eq = inf."""
         Ieq = np.maximum(self.I_eq(phi), 0.0)
-        return sum((c * table1_coefficient(n) * Ieq ** (n + 1) for n, c in self._terms()), np.zeros_like(Ieq))
+        return self._series([(n + 1, k) for n, k in self._f_terms()], phi, Ieq)
 
     def dB_dphi(self, phi):
         Ieq = np.maximum(self.I_eq(phi), 0.0)
-        dIeq = np.where(self.I_eq(phi) > 0, self.equilibrium.dI_eq_dphi(phi), 0.0)
-        return sum(
-            (c * table1_coefficient(n) * (n + 1) * Ieq**n * dIeq for n, c in self._terms()),
-            np.zeros_like(Ieq),
-        )
+        dIeq = self.equilibrium.dI_eq_dphi(phi)
+        with np.errstate(invalid="ignore"):
+            d = self._series([(n, k * (n + 1)) for n, k in self._f_terms()], phi, Ieq) * dIeq
+        return np.where(Ieq == 0, 0.0, d)
