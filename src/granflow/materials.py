@@ -76,13 +76,15 @@ class Material(Params):
         Returns
         -------
         ndarray
-            I, with I = 0 where |S| = 0 (also at p = 0) and I = inf where p = 0 < |S|.
+            I, with I = 0 where |S| = 0 (also at p = 0) and I = inf where p <= 0 < |S|; NaN in
+            either input gives NaN (so that NaN checks downstream see it).
         """
         S = np.asarray(S, dtype=float)
         p = np.asarray(p, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
             I = self.c_I * self.d * S * np.sqrt(self.rho_s) / np.sqrt(p)
-        return np.where(S > 0, np.where(p > 0, I, np.inf), 0.0)
+        I = np.where(S <= 0, 0.0, np.where(p <= 0, np.inf, I))
+        return np.where(np.isnan(S) | np.isnan(p), np.nan, I)
 
     def shear_rate_scale(self, p):
         """sqrt(p/rho_s)/(c_I d) [s^-1]: the |S| at which I = 1, so that I = |S| / scale."""
