@@ -488,3 +488,16 @@ def test_nan_propagates(closure_case):
             assert np.isnan(c.dissipation_density(*args)), args
         if closure_case.name != "incompressible":
             assert np.isnan(c.div_rate(np.nan, 1e3, 1.0))
+
+
+def test_dp_dilatancy_at_phi_max_and_rest_is_finite():
+    """Regression (found by the solver): at phi = phi_max and I = 0, I_eq/I was 0/0. With I_eq = 0
+    the dilatancy angle is psi = sin(delta)/(1 - cos(delta)) for every I > 0; the same value is
+    taken at I = 0."""
+    c = make_closure("drucker_prager_dilatancy", delta_deg=30.0)
+    d = np.radians(30.0)
+    K = np.sin(d) / (1 - np.cos(d))
+    phi_max = c.material.phi_max
+    assert np.isclose(float(c.psi(phi_max, 0.0)), K, rtol=1e-14)
+    assert np.isclose(float(c.Z(phi_max, 0.0)), np.sin(d) + np.cos(d) * K, rtol=1e-14)
+    assert np.isnan(float(c.psi(phi_max, np.nan)))

@@ -94,9 +94,11 @@ class DruckerPragerDilatancy(DruckerPragerYield):
         return self.sin_delta / (1.0 - self.cos_delta)
 
     def _ratio(self, phi, I):
+        """I_eq/I, taken as 0 where I_eq = 0 (phi >= phi_max), also at I = 0 (limit I_eq -> 0 first)."""
         Ieq = np.maximum(self.I_eq(phi), 0.0)
+        I = _arr(I)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return Ieq / _arr(I)
+            return np.where((Ieq == 0) & ~np.isnan(I), 0.0, Ieq / I)
 
     def psi(self, phi, I):
         """Dilatancy angle psi(phi, I) [rad] (eq. psi)."""

@@ -1,0 +1,140 @@
+"""Diagnostics of a run: mass, energies, dissipation, front position and the energy budget
+(NUMERICS.md §9, §10; paper Theorem th1, MODEL.md §5). All integrals are per unit width.
+
+Discrete quantities (dV = dx dz):
+
+* mass ``M = sum_c phi dV`` [m^2];
+* kinetic energy ``E_k = 1/2 sum_f rho_f u_f^2 dV`` [J m^-1] with the model's face inertia
+  ``rho_f = max(phi_f rho_s, rho_a)`` (so that the backward-Euler identity below is exact);
+* potential energy ``E_p = -sum_c phi rho_s (g . x_c) dV`` [J m^-1];
+* dissipation rates [W m^-1]: yield/viscous ``D_y = dV u^T V(eta) u`` and dilatancy work
+  ``D_d = -dV sum_c p (Div u)_c``; with ``Div = -Grad^T`` their sum is the power of the stresses,
+  and in the continuum ``D_y + D_d = int 2 (Z - f) p |S|`` (paper eq. dissipation-general-exp).
+
+Energy budget (:class:`EnergyBudget`): ``err(t) = E_k + E_p - (E_k + E_p)(0) + int_0^t (D_y + D_d) dt``,
+reported relative to the released potential energy ``E_p(0) - E_p(t)``. Dotting the discrete
+momentum equation with ``u^{n+1} dV`` shows that ``err`` is exactly the sum of four numerical terms,
+which the budget also accumulates:
+
+* ``-int BE dt``, BE = ``sum rho_f |u^{n+1} - u^n|^2 dV / (2 dt)`` (backward Euler, <= 0 contribution);
+* ``-int P_adv dt``, ``P_adv = dV sum rho_f a^n . u^{n+1}`` (upwind momentum advection);
+* ``sum 1/2 (rho_f^{n+1} - rho_f^n) |u^{n+1}|^2 dV`` (inertia carried by the phi transport);
+* ``sum [E_p^{n+1} - E_p^n + dt dV f_g . u^{n+1}]`` (gravity/transport mismatch: centred phi_f in
+  the gravity force versus MUSCL fluxes in the transport; includes the clipping).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from granflow.grid import Grid
+from granflow.physics import momentum as mom
+
+HALF = 0.5
+
+
+def mass(grid: Grid, phi) -> float:
+    """Solid mass per unit width and per unit grain density, ``sum phi dV`` [m^2]."""
+    return float(np.sum(phi) * grid.cell_volume)
+
+
+def kinetic_energy(model, state) -> float:
+    """``1/2 sum_f rho_f u_f^2 dV`` [J m^-1] with the model's face inertia."""
+    rho_f = mom.face_density(model.ops, state.phi, model.material.rho_s, model.ambient.rho_a)
+    return HALF * model.grid.cell_volume * float(rho_f @ (state.vel * state.vel))
+
+
+def potential_energy(model, state) -> float:
+    """``-sum_c phi rho_s (g . x_c) dV`` [J m^-1] (zero at the origin of the grid's coordinates)."""
+    X, Z = model.grid.cell_coords()
+    gx, gz = model.gravity
+    return -model.material.rho_s * model.grid.cell_volume * float(np.sum(state.phi * (gx * X + gz * Z)))
+
+
+def dissipation_rates(model, state) -> tuple[float, float]:
+    """``(D_y, D_d)`` [W m^-1] of ``state`` with the viscosity recomputed from (u, p) (not the
+    lagged one of the last Picard sweep, which the step reports carry)."""
+    ops = model.ops
+    S = ops.strain_rate_norm(state.vel)
+    dense = model.dense(state.phi)
+    coef = model.coefficients(model.effective_packing(state.phi), state.p.ravel(), S, 1.0, dense)
+    eta_c = coef.eta_c
+    d_y = ops.dissipation(state.vel, eta_c, ops.cell_to_node @ eta_c)
+    d_d = -model.grid.cell_volume * float(state.p.ravel() @ (ops.div @ state.vel))
+    return d_y, d_d
+
+
+def deposit_thickness(grid: Grid, phi, phi_max: float) -> np.ndarray:
+    """``h(x) = sum_z phi dz / phi_max`` per column [m], shape (nx,)."""
+    return np.sum(phi, axis=1) * grid.dz / phi_max
+
+
+def front_position(grid: Grid, phi, phi_max: float, threshold: float) -> float:
+    """Furthest x [m] (right edge of the column) where :func:`deposit_thickness` > threshold [m];
+    ``nan`` if no column qualifies (NUMERICS.md §10)."""
+    h = deposit_thickness(grid, phi, phi_max)
+    cols = np.flatnonzero(h > threshold)
+    return float(grid.xf[cols[-1] + 1]) if cols.size else float("nan")
+
+
+@dataclass
+class EnergyBudget:
+    """Running energy budget of a run (see the module docstring).
+
+    Create with :meth:`start`, then call :meth:`record` after every accepted step.
+    """
+
+    model: object
+    e_k0: float
+    e_p0: float
+    e_k: float
+    e_p: float
+    rho_f: np.ndarray
+    t: float = 0.0
+    dissipated: float = 0.0
+    """``int (D_y + D_d) dt`` [J m^-1]."""
+    dissipated_yield: float = 0.0
+    dissipated_dilatancy: float = 0.0
+    numerical: dict = field(default_factory=lambda: dict(backward_euler=0.0, advection=0.0,
+                                                         inertia_transport=0.0, gravity_transport=0.0))
+    """The four numerical contributions to ``err`` [J m^-1]; they sum to :attr:`residual`."""
+
+    @classmethod
+    def start(cls, model, state) -> EnergyBudget:
+        rho_f = mom.face_density(model.ops, state.phi, model.material.rho_s, model.ambient.rho_a)
+        e_k, e_p = kinetic_energy(model, state), potential_energy(model, state)
+        return cls(model=model, e_k0=e_k, e_p0=e_p, e_k=e_k, e_p=e_p, rho_f=rho_f, t=state.t)
+
+    def record(self, report, state) -> None:
+        """Account for one accepted step (``report`` from :meth:`Model.advance`)."""
+        m, dt = self.model, report.dt
+        dV = m.grid.cell_volume
+        rho_new = mom.face_density(m.ops, state.phi, m.material.rho_s, m.ambient.rho_a)
+        e_p = potential_energy(m, state)
+        self.numerical["backward_euler"] -= dt * report.inertia_dissipation
+        self.numerical["advection"] -= dt * report.advection_power
+        self.numerical["inertia_transport"] += HALF * dV * float((rho_new - self.rho_f) @ (state.vel ** 2))
+        self.numerical["gravity_transport"] += e_p - self.e_p + dt * report.gravity_power
+        self.dissipated_yield += dt * report.dissipation_yield
+        self.dissipated_dilatancy += dt * report.dissipation_dilatancy
+        self.dissipated = self.dissipated_yield + self.dissipated_dilatancy
+        self.rho_f = rho_new
+        self.e_p = e_p
+        self.e_k = HALF * dV * float(rho_new @ (state.vel ** 2))
+        self.t = state.t
+
+    @property
+    def released(self) -> float:
+        """Released potential energy ``E_p(0) - E_p(t)`` [J m^-1]."""
+        return self.e_p0 - self.e_p
+
+    @property
+    def residual(self) -> float:
+        """``err = E_k + E_p - (E_k + E_p)(0) + int D dt`` [J m^-1] (< 0: numerical dissipation)."""
+        return self.e_k + self.e_p - self.e_k0 - self.e_p0 + self.dissipated
+
+    @property
+    def relative_residual(self) -> float:
+        """``err / (E_p(0) - E_p(t))`` [-] (nan while nothing is released)."""
+        return self.residual / self.released if self.released > 0 else float("nan")

@@ -1,0 +1,439 @@
+"""The dry model (p_f = 0): one semi-implicit time step of paper eqs syst1b, syst3b, syst4b on the
+MAC grid, for any closure of the registry (NUMERICS.md §0, §3.1 "v1").
+
+Step n -> n+1 (:meth:`Model.advance`):
+
+1. explicit parts (:mod:`granflow.physics.momentum`): momentum advection (first-order upwind by
+   default, MUSCL optional), inertia ``rho_f = max(phi_f rho_s, rho_a)``, gravity
+   ``phi_f rho_s g`` on the grains only. With ``consistent_gravity`` (default) the gravity
+   ``phi_f`` is the face fraction of the mass flux of a transport step with ``u^n``
+   (:func:`granflow.physics.transport.flux_face_fraction`), so that the gravity work matches the
+   potential-energy change of the transport (the centred ``phi_f`` of the prototype creates
+   energy at the smeared free surface and feeds a never-ending surface film);
+2. Picard loop (at most ``picard.max_sweeps`` sweeps) on the monolithic (u, p) saddle-point
+   system, with coefficients lagged at the iterate (u_k, p_k); the closure is evaluated at
+   ``I_e = I(sqrt(|S_k|^2 + eps^2), p_e)``, ``p_e = p_k + delta_p`` (finite, > 0):
+
+   * yield viscosity ``eta = max(Z, 0) p_k / (2 sqrt(|S_k|^2 + eps^2)) + eta_visc/2 + eta_a``
+     at cells (``eta_visc S`` is the closure's viscous stress), arithmetic mean to nodes
+     (regularisation ``eps``, NUMERICS.md §4); ambient cells get ``eta_a``; cells with ``Z < 0``
+     are counted in the report;
+   * dilatancy row on dense, active cells ``Div u + C p = b``: the stiff-safe law
+     ``div u = fac (2|S| A(phi, I) - G(phi) sqrt(p))`` (``Closure.A``,
+     ``Closure.compaction_coefficient``) with the AP factor ``fac`` of
+     :func:`granflow.physics.dilatancy.ap_factor`, linearised in p as
+     ``G sqrt(p) ~ G p / sqrt(p_e)`` (Picard, NUMERICS.md §5.1) and
+     ``2|S| A(I(p)) ~ 2|S| A(I_e) - |S| I_e dA/dI (p - p_e)/p_e`` (Newton on the I-dependence,
+     clipped to keep ``C >= 0``); ``fac = 0`` (infinitely stiff) gives ``div u = 0``;
+   * primal-dual active set for ``p >= 0`` (NUMERICS.md §5.4), every dense cell starting active:
+     active cells with ``p < 0`` become free (``p = 0``, not an unknown), free cells with
+     ``Div u < b`` are reactivated; converged when the relative velocity increment is below
+     ``picard.tol`` and the active set did not change;
+3. conservative MUSCL-minmod SSP-RK2 transport of phi with ``u^{n+1}``; bounds measured, then
+   clipped, the clipped mass reported (:mod:`granflow.physics.transport`).
+
+A step FAILS (state untouched) on a non-finite closure value or solution, a Picard increment
+above ``picard.fail_tol``, a CFL number of ``u^{n+1}`` above 1/2 (positivity limit) or phi
+outside ``[-tol phi_max, (1 + tol) phi_max]`` before clipping.
+
+Cells with ``phi < phi_c`` are a pressureless light ambient (``p = 0``, no constraint, ``eta_a``,
+``rho_a``; NUMERICS.md §7). Dense cells within :data:`INTERFACE_RADIUS` cells of the ambient
+evaluate the closure at the local packing ``phi_loc`` = max of phi over the ``(2r+1)^2``
+neighbourhood (the partial-cell compaction pump fix of NUMERICS.md §7.1). The closure is always
+evaluated at phi clipped to ``[PHI_FLOOR, phi_max]``. Nothing here is closure-specific.
+
+A pore-pressure block (paper eq. syst2b) will be a third block row/column of the same system
+(:meth:`granflow.physics.momentum.SaddleAssembler.bordered`, NUMERICS.md §3.1);
+:meth:`Model.advance` keeps ``state.p_f`` untouched (zero).
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+import scipy.sparse.linalg as spla
+from pydantic import Field
+from scipy.ndimage import maximum_filter
+
+from granflow.errors import GranflowInputError
+from granflow.grid import Grid, VelocityBCs
+from granflow.operators import Operators
+from granflow.params import Params
+from granflow.physics import momentum as mom
+from granflow.physics.dilatancy import ap_factor
+from granflow.physics.transport import (POSITIVITY_CFL, advect, cfl_number, clip_to_bounds,
+                                       flux_face_fraction)
+from granflow.rheology.base import Closure
+from granflow.state import State
+
+DEFAULT_GRAVITY = (0.0, -9.81)
+"""Gravity (g_x, g_z) [m s^-2]."""
+DEFAULT_EPS = 5.0e-3
+"""Regularisation strain rate eps [s^-1] (NUMERICS.md §4: 1e-3..5e-3 gives the same run-out)."""
+DEFAULT_DELTA_P = 1.0
+"""Pressure offset delta_p [Pa] of the sqrt(p) linearisation and of I at p -> 0 (NUMERICS.md §3.1)."""
+PHI_FLOOR = 1.0e-3
+"""Lower clip of phi where the closure is evaluated (NUMERICS.md §6)."""
+INTERFACE_RADIUS = 2
+"""Half-width (cells) of the neighbourhood of the interface packing phi_loc (NUMERICS.md §7.1)."""
+VISCOUS_ADDITION_FACTOR = 0.5
+"""The closure's viscous stress eta_visc S is 2 (eta_visc/2) S in the tau = 2 eta S convention."""
+DEFAULT_PHI_TOLERANCE = 0.05
+"""Relative overshoot of phi_max (before clipping) that fails a step."""
+
+
+class AmbientParams(Params):
+    """The pressureless light ambient (NUMERICS.md §7).
+
+    Attributes
+    ----------
+    phi_c : float
+        Cells with phi < phi_c are ambient [-]. Default 0.3.
+    rho_a : float
+        Ambient inertia [kg m^-3] (no weight). Default 2.
+    eta_a : float
+        Ambient viscosity [Pa s], also a background viscosity of dense cells. Default 1e-3.
+    """
+
+    phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")
+    rho_a: float = Field(2.0, gt=0, description="ambient density [kg m^-3]")
+    eta_a: float = Field(1.0e-3, gt=0, description="ambient viscosity [Pa s]")
+
+
+class PicardParams(Params):
+    """Picard / active-set loop of one step.
+
+    Attributes
+    ----------
+    max_sweeps : int
+        Maximum number of linear solves per step. Default 4.
+    tol : float
+        Converged when ``|u_{k+1} - u_k| <= tol (|u_{k+1}| + sqrt(n) eps Lz)`` and the active set
+        did not change [-]. Default 1e-3.
+    fail_tol : float
+        The step FAILS if the last relative increment exceeds this [-]. Default 0.5.
+    """
+
+    max_sweeps: int = Field(4, ge=1, description="maximum Picard sweeps per step")
+    tol: float = Field(1.0e-3, gt=0, description="relative velocity-increment tolerance")
+    fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
+
+
+class StepStatus(str, Enum):
+    """Outcome of :meth:`Model.advance`."""
+
+    OK = "ok"
+    """Converged and within bounds."""
+    NOT_CONVERGED = "not_converged"
+    """Accepted: Picard stopped at ``max_sweeps`` with an increment below ``fail_tol``."""
+    FAILED = "failed"
+    """Rejected (state unchanged): NaN, Picard divergence, CFL or phi-bound violation."""
+
+
+@dataclass(frozen=True)
+class StepReport:
+    """What happened during one step. Powers are per unit width [W m^-1], masses [m^2]."""
+
+    status: StepStatus
+    dt: float
+    message: str = ""
+    picard_iterations: int = 0
+    picard_increment: float = float("nan")
+    active_set_changes: int = 0
+    n_dense: int = 0
+    n_free: int = 0
+    n_negative_Z: int = 0
+    cfl: float = float("nan")
+    clipped_mass: float = 0.0
+    added_mass: float = 0.0
+    max_phi_before_clip: float = float("nan")
+    min_phi_before_clip: float = float("nan")
+    dissipation_yield: float = 0.0
+    """``dV u^T V u`` with the viscosity of the last solve (yield + viscous + background)."""
+    dissipation_dilatancy: float = 0.0
+    """``-dV sum p Div u`` (the dilatancy work; may be negative locally and in total)."""
+    inertia_dissipation: float = 0.0
+    """Backward-Euler numerical dissipation ``sum rho_f |u^{n+1} - u^n|^2 dV / (2 dt)``."""
+    advection_power: float = 0.0
+    """``dV sum rho_f a^n . u^{n+1}`` (upwind advection work)."""
+    gravity_power: float = 0.0
+    """``dV sum f_g . u^{n+1}``."""
+    timings: dict = field(default_factory=dict)
+    """Wall time per phase [s]: 'assembly', 'solve', 'transport'."""
+
+    @property
+    def failed(self) -> bool:
+        return self.status is StepStatus.FAILED
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    """Lagged coefficients of one Picard sweep, flat over cells."""
+
+    eta_c: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    n_negative_Z: int
+    nonfinite: dict
+    """Number of dense cells with a non-finite Z, b or C (empty if all finite)."""
+
+
+class Model:
+    """Grid + closure + gravity + wall conditions + numerical parameters; :meth:`advance`.
+
+    Parameters
+    ----------
+    grid : Grid
+    closure : Closure
+        Any registered closure (:func:`granflow.rheology.make_closure`); its ``material`` gives
+        rho_s, phi_max, d and the inertial-number convention c_I.
+    gravity : (float, float)
+        ``(g_x, g_z)`` [m s^-2]. Default (0, -9.81); tilt it to model a slope.
+    bcs : VelocityBCs, optional
+        Wall conditions (default no-slip base, free-slip sides and top).
+    eps : float
+        Regularisation strain rate [s^-1]. Default :data:`DEFAULT_EPS` = 5e-3.
+    ambient : AmbientParams or dict, optional
+    picard : PicardParams or dict, optional
+    delta_p : float
+        Pressure offset [Pa] of the sqrt(p) linearisation. Default 1.
+    interface_packing : bool
+        Use phi_loc near the ambient (NUMERICS.md §7.1). Default True.
+    phi_tolerance : float
+        Relative overshoot of phi_max (before clipping) that fails the step (also
+        ``phi < -phi_tolerance phi_max``). Default 0.05.
+    consistent_gravity : bool
+        Weigh the gravity force with the face fraction of the mass flux (energy-consistent
+        gravity) instead of the centred mean. Default True.
+    gravity_blend_velocity : float, optional
+        Faces slower than this keep (a blend towards) the centred weight [m s^-1]; default
+        ``eps * Lz``, the creep velocity scale.
+    advection : Advection or str
+        Momentum advection scheme, ``"upwind"`` (default, v1) or ``"muscl"``.
+    """
+
+    def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
+                 bcs: VelocityBCs | None = None, eps: float = DEFAULT_EPS,
+                 ambient: AmbientParams | dict | None = None,
+                 picard: PicardParams | dict | None = None, delta_p: float = DEFAULT_DELTA_P,
+                 interface_packing: bool = True,
+                 phi_tolerance: float = DEFAULT_PHI_TOLERANCE, consistent_gravity: bool = True,
+                 gravity_blend_velocity: float | None = None,
+                 advection: mom.Advection | str = mom.Advection.UPWIND) -> None:
+        if not isinstance(grid, Grid):
+            raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
+        if not isinstance(closure, Closure):
+            raise GranflowInputError(f"Model: closure must be a Closure, got {type(closure).__name__}")
+        g = np.asarray(gravity, dtype=float)
+        if g.shape != (2,) or not np.all(np.isfinite(g)):
+            raise GranflowInputError(f"Model: gravity must be two finite numbers (g_x, g_z), got {gravity!r}")
+        for name, value in (("eps", eps), ("delta_p", delta_p), ("phi_tolerance", phi_tolerance)):
+            if not (np.isfinite(value) and value > 0):
+                raise GranflowInputError(f"Model: {name} must be > 0, got {value!r}")
+        self.grid = grid
+        self.closure = closure
+        self.material = closure.material
+        self.gravity = (float(g[0]), float(g[1]))
+        self.ops = Operators.build(grid, bcs)
+        self.assembler = mom.SaddleAssembler(self.ops)
+        self.eps = float(eps)
+        self.ambient = ambient if isinstance(ambient, AmbientParams) else AmbientParams(**(ambient or {}))
+        self.picard = picard if isinstance(picard, PicardParams) else PicardParams(**(picard or {}))
+        if not self.ambient.phi_c < self.material.phi_max:
+            raise GranflowInputError(
+                f"Model: ambient.phi_c = {self.ambient.phi_c} must be below phi_max = {self.material.phi_max}")
+        self.delta_p = float(delta_p)
+        self.interface_packing = bool(interface_packing)
+        self.phi_tolerance = float(phi_tolerance)
+        self.consistent_gravity = bool(consistent_gravity)
+        try:
+            self.advection = mom.Advection(advection)
+        except ValueError:
+            raise GranflowInputError(f"Model: unknown advection scheme {advection!r}; expected one of "
+                                     f"{[a.value for a in mom.Advection]}") from None
+        self.gravity_blend_velocity = (self.eps * grid.Lz if gravity_blend_velocity is None
+                                       else float(gravity_blend_velocity))
+        if not self.gravity_blend_velocity > 0:
+            raise GranflowInputError("Model: gravity_blend_velocity must be > 0")
+
+    # --- fields -------------------------------------------------------------------------------
+    def dense(self, phi) -> np.ndarray:
+        """Flat mask of the granular (non-ambient) cells, ``phi >= phi_c``."""
+        return np.ravel(phi) >= self.ambient.phi_c
+
+    def effective_packing(self, phi) -> np.ndarray:
+        """Flat phi at which the closure is evaluated: phi_loc near the ambient (NUMERICS.md
+        §7.1), clipped to ``[PHI_FLOOR, phi_max]``."""
+        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        out = phi
+        if self.interface_packing:
+            size = 2 * INTERFACE_RADIUS + 1
+            ambient = phi < self.ambient.phi_c
+            near = maximum_filter(ambient, size=size, mode="nearest") & ~ambient
+            out = np.where(near, maximum_filter(phi, size=size, mode="nearest"), phi)
+        return np.clip(out, PHI_FLOOR, self.material.phi_max).ravel()
+
+    def lithostatic_pressure(self, phi) -> np.ndarray:
+        """Discrete hydrostatic p [Pa], shape (nx, nz): the p with ``Grad p = f_g`` on the z-faces
+        of every column (trapezoidal sum of ``phi rho_s |g_z| dz`` from the top), zero in the
+        ambient. For a uniform layer filling whole cells it equals ``phi rho_s |g_z| (H - z)``."""
+        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        upper = np.concatenate([phi[:, 1:], np.zeros((phi.shape[0], 1))], axis=1)
+        face = 0.5 * (phi + upper) * self.material.rho_s * abs(self.gravity[1]) * self.grid.dz
+        p = np.cumsum(face[:, ::-1], axis=1)[:, ::-1]
+        return np.where(phi >= self.ambient.phi_c, p, 0.0)
+
+    def initial_state(self, phi) -> State:
+        """State at rest with phi and the :meth:`lithostatic_pressure` as first Picard iterate."""
+        return State.at_rest(self.grid, phi, p=self.lithostatic_pressure(phi))
+
+    def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
+        """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
+        face fraction of the mass flux of a step with velocity ``vel``
+        (:func:`granflow.physics.transport.flux_face_fraction`)."""
+        phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity)
+                    if self.consistent_gravity else None)
+        return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
+
+    def coefficients(self, phi_e, p_k, S, dt: float, dense) -> Coefficients:
+        """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2).
+
+        The closure is evaluated at ``I_e = I(sqrt(|S|^2 + eps^2), p_k + delta_p)``: the
+        inertial number of the regularised strain rate, finite and > 0 everywhere.
+        """
+        c = self.closure
+        p_e = np.maximum(p_k, 0.0) + self.delta_p
+        S_reg = np.sqrt(S * S + self.eps * self.eps)
+        I_e = self.material.inertial_number(S_reg, p_e)
+        with np.errstate(all="ignore"):
+            Z = c.Z(phi_e, I_e)
+            eta = mom.yield_viscosity(Z, p_k, S, self.eps) + VISCOUS_ADDITION_FACTOR * c.eta_visc
+            shear = np.where(S > 0, 2.0 * S * c.A(phi_e, I_e), 0.0)
+            dshear = np.maximum(np.where(S > 0, S * I_e * c.dA_dI(phi_e, I_e), 0.0), 0.0)
+            fac = ap_factor(c, phi_e, p_e, S, dt)
+            live = fac > 0  # fac = 0: infinitely stiff relaxation, the constraint is div u = 0
+            b = np.where(live, fac * (shear + dshear), 0.0)
+            C = np.where(live, fac * (c.compaction_coefficient(phi_e) / np.sqrt(p_e) + dshear / p_e), 0.0)
+        bad = {name: int(np.count_nonzero(dense & ~np.isfinite(v))) for name, v in
+               (("Z", Z), ("b", b), ("C", C))}
+        eta = np.where(dense, eta, 0.0) + self.ambient.eta_a
+        return Coefficients(eta_c=eta, b=b, C=C, n_negative_Z=int(np.count_nonzero(dense & (Z < 0))),
+                            nonfinite={k: v for k, v in bad.items() if v})
+
+    # --- one step -----------------------------------------------------------------------------
+    def advance(self, state: State, dt: float) -> StepReport:
+        """Advance ``state`` in place by ``dt`` [s]; on FAILED the state is left unchanged.
+
+        Returns
+        -------
+        StepReport
+        """
+        if not (np.isfinite(dt) and dt > 0):
+            raise GranflowInputError(f"Model.advance: dt must be > 0, got {dt!r}")
+        g, ops, mat = self.grid, self.ops, self.material
+        tim = {"assembly": 0.0, "solve": 0.0, "transport": 0.0}
+        t0 = time.perf_counter()
+        phi = state.phi
+        dense = self.dense(phi)
+        phi_e = self.effective_packing(phi)
+        rho_f = mom.face_density(ops, phi, mat.rho_s, self.ambient.rho_a)
+        adv = mom.momentum_advection(ops, state.vel, self.advection)
+        f_g = self.gravity_force(phi, state.vel, dt)
+        rhs_u = rho_f * (state.vel / dt - adv) + f_g
+        u_k = state.vel.copy()
+        p_k = np.maximum(state.p.ravel(), 0.0)
+        free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
+        n = g.n_unknowns
+        floor = np.sqrt(n) * self.eps * g.Lz
+        changes, rel, sweeps, n_negz = 0, np.inf, 0, 0
+        converged = False
+        tim["assembly"] += time.perf_counter() - t0
+        for sweeps in range(1, self.picard.max_sweeps + 1):
+            t0 = time.perf_counter()
+            S = ops.strain_rate_norm(u_k)
+            coef = self.coefficients(phi_e, p_k, S, dt, dense)
+            if coef.nonfinite:
+                return self._failed(dt, f"closure {self.closure.name!r} gave non-finite values in "
+                                        f"dense cells: {coef.nonfinite}", sweeps, tim)
+            n_negz = max(n_negz, coef.n_negative_Z)
+            eta_n = ops.cell_to_node @ coef.eta_c
+            a_data = self.assembler.velocity_data(rho_f / dt, coef.eta_c, eta_n)
+            act = dense & ~free
+            K = self.assembler.saddle(a_data, act, coef.C)
+            rhs = np.concatenate([rhs_u, -coef.b[act]])
+            t1 = time.perf_counter()
+            tim["assembly"] += t1 - t0
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                try:
+                    sol = spla.spsolve(K, rhs)
+                except Exception as err:  # singular matrix, SuperLU failure
+                    tim["solve"] += time.perf_counter() - t1
+                    return self._failed(dt, f"linear solve failed: {err}", sweeps, tim)
+            tim["solve"] += time.perf_counter() - t1
+            if not np.all(np.isfinite(sol)):
+                return self._failed(dt, "non-finite solution of the linear system", sweeps, tim)
+            u_new = sol[:n]
+            p_new = np.zeros(g.n_cells)
+            p_new[act] = sol[n:]
+            eta_last = (coef.eta_c, eta_n)
+            div_u = ops.div @ u_new
+            to_free = act & (p_new < 0.0)
+            to_act = free & (div_u < coef.b)
+            n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
+            changes += n_change
+            free = (free & ~to_act) | to_free
+            p_raw = p_new
+            p_new = np.where(act & ~to_free, p_new, 0.0)
+            inc = float(np.linalg.norm(u_new - u_k))
+            rel = inc / (float(np.linalg.norm(u_new)) + floor)
+            u_k, p_k, p_solve = u_new, p_new, p_raw
+            if rel <= self.picard.tol and n_change == 0:
+                converged = True
+                break
+        if not converged and rel > self.picard.fail_tol:
+            return self._failed(dt, f"Picard diverged (relative increment {rel:.3g})", sweeps, tim)
+        dV = g.cell_volume
+        diss_y = ops.dissipation(u_k, *eta_last)
+        diss_d = -dV * float(p_solve @ (ops.div @ u_k))  # the p of the solve (before freeing)
+        du = u_k - state.vel
+        be = 0.5 * dV * float(rho_f @ (du * du)) / dt
+        adv_pow = dV * float((rho_f * adv) @ u_k)
+        grav_pow = dV * float(f_g @ u_k)
+        # --- transport -------------------------------------------------------------------------
+        t0 = time.perf_counter()
+        cfl = cfl_number(g, u_k, dt)
+        if cfl > POSITIVITY_CFL:
+            return self._failed(dt, f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps, tim)
+        phi_new = advect(g, phi, u_k, dt).phi
+        if not np.all(np.isfinite(phi_new)):
+            return self._failed(dt, "non-finite phi after transport", sweeps, tim)
+        phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, dV)
+        tim["transport"] += time.perf_counter() - t0
+        if bounds.max_before > mat.phi_max * (1.0 + self.phi_tolerance):
+            return self._failed(dt, f"phi = {bounds.max_before:.4g} exceeds phi_max by more than "
+                                    f"{self.phi_tolerance:.2%}", sweeps, tim)
+        if bounds.min_before < -mat.phi_max * self.phi_tolerance:
+            return self._failed(dt, f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance", sweeps, tim)
+        state.phi = phi_clip
+        state.vel = u_k
+        state.p = p_k.reshape(g.cell_shape)
+        state.t += dt
+        state.step += 1
+        return StepReport(
+            status=StepStatus.OK if converged else StepStatus.NOT_CONVERGED, dt=dt,
+            picard_iterations=sweeps, picard_increment=rel, active_set_changes=changes,
+            n_dense=int(np.count_nonzero(dense)), n_free=int(np.count_nonzero(free)),
+            n_negative_Z=n_negz, cfl=cfl, clipped_mass=bounds.clipped_mass,
+            added_mass=bounds.added_mass, max_phi_before_clip=bounds.max_before,
+            min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
+            dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
+            gravity_power=grav_pow, timings=tim)
+
+    @staticmethod
+    def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:
+        return StepReport(status=StepStatus.FAILED, dt=dt, message=message,
+                          picard_iterations=sweeps, timings=timings)

@@ -1,0 +1,293 @@
+"""Momentum balance of the solids, paper eq. syst3b, semi-discretised on the MAC grid
+(NUMERICS.md §2, §3.1, §7):
+
+    phi rho_s (d_t u + u . grad u) = phi rho_s g - grad p + div(2 eta S) [- grad p_f]
+
+Time discretisation of one step (backward Euler for everything but advection):
+
+    rho_f (u^{n+1} - u^n)/dt + rho_f a^n + V(eta) u^{n+1} + Grad p^{n+1} = f_g
+
+* ``rho_f = max(phi_f rho_s, rho_a)`` at faces (``phi_f`` the centred mean of the two cells): the
+  pressureless light ambient keeps the mass matrix positive where phi -> 0 (NUMERICS.md §7);
+* ``f_g = phi_f rho_s g``: gravity acts on the grains only -- the ambient has no weight
+  (``phi_f`` centred, or the mass-flux face fraction for energy-consistent gravity);
+* ``a^n = (u^n . grad) u^n``: explicit, first-order upwind (v1, NUMERICS.md §3.1; the main source
+  of numerical dissipation, §9) or MUSCL-minmod (:class:`Advection`);
+* ``V(eta) = ec^T diag(eta_c) ec + en^T diag(w_n eta_n) en`` (:meth:`Operators.viscous_operator`),
+  ``V u ~ -div(2 eta S)``; the regularised yield viscosity of :func:`yield_viscosity` is lagged in
+  the Picard loop of :class:`granflow.model.Model`.
+
+The (u, p) saddle-point matrix (:class:`SaddleAssembler`) is the symmetric form of
+NUMERICS.md §3.1 restricted to the *active* cells (ambient and free cells have ``p = 0`` and are
+not unknowns):
+
+    [ A           Grad_act   ] [u    ]   [ r_u    ]
+    [ Grad_act^T  -diag(C)   ] [p_act] = [ -b_act ]
+
+with ``A = diag(rho_f/dt) + V`` and ``Grad^T = -Div``, so each row of the second block reads
+``Div u + C p = b`` (the linearised dilatancy law). A pore-pressure block will be a third block
+row and column (``[Grad; 0; gas rows]``, NUMERICS.md §3.1), assembled the same way from
+coordinate triplets; this module does not depend on it.
+"""
+from __future__ import annotations
+
+from enum import Enum
+
+import numpy as np
+import scipy.sparse as sp
+
+from granflow.grid import Grid, Side
+from granflow.operators import GHOST_SIGN, Operators
+
+QUARTER = 0.25
+HALF = 0.5
+
+
+def face_density(ops: Operators, phi, rho_s: float, rho_a: float) -> np.ndarray:
+    """Inertia ``rho_f = max(phi_f rho_s, rho_a)`` at the velocity unknowns [kg m^-3]."""
+    return np.maximum(ops.cell_to_face @ np.ravel(phi) * rho_s, rho_a)
+
+
+def gravity_force(ops: Operators, phi, rho_s: float, gravity, phi_face=None) -> np.ndarray:
+    """Body force ``phi_f rho_s g`` on the velocity unknowns [N m^-3] (grains only).
+
+    Parameters
+    ----------
+    ops : Operators
+    phi : ndarray, (nx, nz)
+        Solid fraction [-].
+    phi_face : ndarray, (n_unknowns,), optional
+        Face fraction to use instead of the centred mean of ``phi`` (e.g.
+        :func:`granflow.physics.transport.flux_face_fraction`).
+    rho_s : float
+        Grain density [kg m^-3].
+    gravity : (float, float)
+        ``(g_x, g_z)`` [m s^-2]; a tilted vector models a slope.
+    """
+    g = ops.grid
+    phi_f = ops.cell_to_face @ np.ravel(phi) if phi_face is None else np.asarray(phi_face)
+    force = np.empty(g.n_unknowns)
+    force[g.u_slice] = phi_f[g.u_slice] * rho_s * gravity[0]
+    force[g.w_slice] = phi_f[g.w_slice] * rho_s * gravity[1]
+    return force
+
+
+class Advection(str, Enum):
+    """Spatial scheme of the explicit momentum advection ``(u . grad) u``."""
+
+    UPWIND = "upwind"
+    """First-order upwind differences (NUMERICS.md §3.1 v1)."""
+    MUSCL = "muscl"
+    """Upwind differences of MUSCL-minmod reconstructed mid-point values (second order away from
+    extrema, TVD in 1-D for CFL <= 1/2)."""
+
+
+def _minmod(a, b):
+    return np.where(a * b > 0.0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+
+
+def _pad(q, axis: int, low, high):
+    """``q`` with two ghost layers on each side of ``axis``: ``low = (outer, inner)``,
+    ``high = (inner, outer)``."""
+    return np.concatenate([low[0], low[1], q, high[0], high[1]], axis=axis)
+
+
+def _derivative(qp: np.ndarray, speed: np.ndarray, h: float, axis: int, scheme: Advection):
+    """``speed * dq/dx`` at the interior points of the padded ``qp`` (2 ghosts per side)."""
+    qp = np.moveaxis(qp, axis, 0)
+    speed = np.moveaxis(speed, axis, 0)
+    q = qp[2:-2]
+    if scheme is Advection.UPWIND:
+        back, fwd = (q - qp[1:-3]) / h, (qp[3:-1] - q) / h
+    else:
+        d = np.diff(qp, axis=0)                       # d[k] = qp[k+1] - qp[k]
+        slope = _minmod(d[:-1], d[1:])                # at padded points 1 .. n+2
+        face = qp[1:-1] + HALF * slope                # value at k+1/2 from point k (upwind u > 0)
+        face_m = qp[1:-1] - HALF * slope              # value at k-1/2 from point k (upwind u < 0)
+        back = (face[1:-1] - face[:-2]) / h           # (q_{i+1/2}^- - q_{i-1/2}^-) / h
+        fwd = (face_m[2:] - face_m[1:-1]) / h         # (q_{i+1/2}^+ - q_{i-1/2}^+) / h
+    out = np.where(speed > 0.0, speed * back, speed * fwd)
+    return np.moveaxis(out, 0, axis)
+
+
+def momentum_advection(ops: Operators, vel, scheme: Advection | str = Advection.UPWIND) -> np.ndarray:
+    """Explicit ``(u . grad) u`` at the velocity unknowns [m s^-2] (NUMERICS.md §3.1, §9).
+
+    The transverse velocity is the mean of the four surrounding staggered values. Ghost values:
+    the normal velocity is odd about its wall (zero on it), the tangential velocity takes the
+    wall condition's ghost (``-u`` no-slip, ``+u`` free-slip,
+    :data:`granflow.operators.GHOST_SIGN`), mirrored for the second layer.
+    """
+    scheme = Advection(scheme)
+    g: Grid = ops.grid
+    u, w = g.unpack_velocity(vel)
+    sign = {side: GHOST_SIGN[ops.bcs.kind(side)] for side in Side}
+    U, W = u[1:-1, :], w[:, 1:-1]
+    # u at interior x-faces: along x (normal, odd about the walls), along z (tangential).
+    zx = np.zeros((1, g.nz))
+    upx = _pad(U, 0, (-U[:1], zx), (zx, -U[-1:]))
+    ax = _derivative(upx, U, g.dx, 0, scheme)
+    sb, st = sign[Side.BOTTOM], sign[Side.TOP]
+    upz = _pad(U, 1, (sb * U[:, 1:2], sb * U[:, :1]), (st * U[:, -1:], st * U[:, -2:-1]))
+    w_at_u = QUARTER * (w[:-1, :-1] + w[:-1, 1:] + w[1:, :-1] + w[1:, 1:])
+    az = _derivative(upz, w_at_u, g.dz, 1, scheme)
+    # w at interior z-faces.
+    zz = np.zeros((g.nx, 1))
+    wpz = _pad(W, 1, (-W[:, :1], zz), (zz, -W[:, -1:]))
+    bz = _derivative(wpz, W, g.dz, 1, scheme)
+    sw, se = sign[Side.WEST], sign[Side.EAST]
+    wpx = _pad(W, 0, (sw * W[1:2, :], sw * W[:1, :]), (se * W[-1:, :], se * W[-2:-1, :]))
+    u_at_w = QUARTER * (u[:-1, :-1] + u[1:, :-1] + u[:-1, 1:] + u[1:, 1:])
+    bx = _derivative(wpx, u_at_w, g.dx, 0, scheme)
+    return np.concatenate([(ax + az).ravel(), (bx + bz).ravel()])
+
+
+def upwind_advection(ops: Operators, vel) -> np.ndarray:
+    """First-order upwind ``(u . grad) u`` (:func:`momentum_advection` with ``UPWIND``)."""
+    return momentum_advection(ops, vel, Advection.UPWIND)
+
+
+def yield_viscosity(Z, p, S, eps: float) -> np.ndarray:
+    """Regularised yield viscosity ``eta = Z p / (2 sqrt(|S|^2 + eps^2))`` [Pa s] (NUMERICS.md §4).
+
+    The deviatoric stress ``2 eta S`` tends to the yield stress ``Z p S/|S|`` of eq. def:tau for
+    ``|S| >> eps``; below, the material creeps at strain rates ~ eps. Negative ``Z`` (possible for
+    the dilatancy-angle closures far below equilibrium, MODEL.md §6.4) and negative ``p`` are
+    clipped at 0, so that ``V`` stays positive semidefinite.
+
+    Parameters
+    ----------
+    Z : array_like
+        Yield function Z(phi, I) [-].
+    p : array_like
+        Granular pressure [Pa].
+    S : array_like
+        Strain-rate norm |S| [s^-1].
+    eps : float
+        Regularisation strain rate [s^-1] (> 0).
+    """
+    Z, p, S = (np.asarray(x, dtype=float) for x in (Z, p, S))
+    return np.maximum(Z, 0.0) * np.maximum(p, 0.0) / (2.0 * np.sqrt(S * S + eps * eps))
+
+
+def momentum_matrix(ops: Operators, rho_f, dt: float, eta_c, eta_n) -> sp.csr_matrix:
+    """Velocity block ``A = diag(rho_f/dt) + V(eta)`` [kg m^-3 s^-1] (symmetric positive definite)."""
+    return (sp.diags(np.asarray(rho_f) / dt) + ops.viscous_operator(eta_c, eta_n)).tocsr()
+
+
+def momentum_rhs(ops: Operators, vel, rho_f, dt: float, body_force) -> np.ndarray:
+    """Explicit right-hand side ``rho_f (u^n/dt - a^n) + f`` [N m^-3] (``a^n`` upwind advection)."""
+    return np.asarray(rho_f) * (np.asarray(vel) / dt - upwind_advection(ops, vel)) + body_force
+
+
+def _row_pairs(B: sp.spmatrix, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All ``(key = k n + l, row r, B_rk B_rl)`` over pairs of non-zeros of each row of ``B``:
+    the contributions of ``B^T diag(c) B``, vectorised over rows (loops only over the at most
+    ``max_nnz_per_row^2`` pair positions)."""
+    B = sp.csr_matrix(B)
+    B.eliminate_zeros()
+    B.sort_indices()
+    counts = np.diff(B.indptr)
+    keys, rows, vals = [], [], []
+    for a in range(int(counts.max(initial=0))):
+        for b in range(int(counts.max(initial=0))):
+            r = np.flatnonzero(counts > max(a, b))
+            ia, ib = B.indptr[r] + a, B.indptr[r] + b
+            keys.append(B.indices[ia].astype(np.int64) * n + B.indices[ib])
+            rows.append(r)
+            vals.append(B.data[ia] * B.data[ib])
+    return np.concatenate(keys), np.concatenate(rows), np.concatenate(vals)
+
+
+class SaddleAssembler:
+    """Fast assembly of the (u, p) saddle-point matrix with a fixed sparsity pattern.
+
+    The velocity block ``A = diag(rho_f/dt) + ec^T diag(eta_c) ec + en^T diag(w_n eta_n) en`` is
+    linear in ``(rho_f/dt, eta_c, eta_n)``: its CSR data are ``P_c eta_c + P_n (w_n eta_n)`` plus the
+    diagonal, with the sparse maps ``P_c``, ``P_n`` built once from the operators. The pressure
+    unknowns are the *active* cells only (inactive cells have ``p = 0`` and are not unknowns), so
+
+        K = [[A, Grad_act], [Grad_act^T, -diag(C_act)]],   Grad_act = Grad[:, active].
+
+    Parameters
+    ----------
+    ops : Operators
+    """
+
+    def __init__(self, ops: Operators) -> None:
+        g = ops.grid
+        n = g.n_unknowns
+        self.ops = ops
+        self.n = n
+        kc, rc, vc = _row_pairs(ops.ec, n)
+        kn, rn, vn = _row_pairs(ops.en, n)
+        kd = np.arange(n, dtype=np.int64) * (n + 1)
+        keys = np.unique(np.concatenate([kc, kn, kd]))
+        self._rows = (keys // n).astype(np.int64)
+        self._cols = (keys % n).astype(np.int64)
+        nnz = keys.size
+        self._pc = sp.csr_matrix((vc, (np.searchsorted(keys, kc), rc)), shape=(nnz, g.n_cells))
+        self._pn = sp.csr_matrix((vn, (np.searchsorted(keys, kn), rn)), shape=(nnz, g.n_nodes))
+        self._diag = np.searchsorted(keys, kd)
+        self._wn = np.asarray(ops.node_weights)
+        gc = ops.grad.tocoo()
+        self._g_rows = gc.row.astype(np.int64)
+        self._g_cols = gc.col.astype(np.int64)
+        self._g_vals = gc.data
+
+    def velocity_data(self, rho_over_dt, eta_c, eta_n) -> np.ndarray:
+        """CSR data of ``A`` in the fixed pattern (see :meth:`velocity_matrix`)."""
+        data = self._pc @ np.asarray(eta_c, dtype=float) + self._pn @ (self._wn * np.asarray(eta_n))
+        data[self._diag] += rho_over_dt
+        return data
+
+    def velocity_matrix(self, data) -> sp.csr_matrix:
+        """``A`` as a CSR matrix from :meth:`velocity_data`."""
+        return sp.csr_matrix((data, (self._rows, self._cols)), shape=(self.n, self.n))
+
+    def saddle(self, a_data, active, C) -> sp.csc_matrix:
+        """``[[A, Grad_act], [Grad_act^T, -diag(C_act)]]``, pressure unknowns = active cells.
+
+        Parameters
+        ----------
+        a_data : ndarray
+            From :meth:`velocity_data`.
+        active : ndarray of bool, (n_cells,)
+        C : ndarray, (n_cells,)
+            Constraint coefficient (only the active entries are used).
+        """
+        n = self.n
+        idx = np.flatnonzero(active)
+        m = idx.size
+        renum = np.full(active.size, -1, dtype=np.int64)
+        renum[idx] = n + np.arange(m)
+        keep = active[self._g_cols]
+        gr, gp, gv = self._g_rows[keep], renum[self._g_cols[keep]], self._g_vals[keep]
+        diag = n + np.arange(m)
+        rows = np.concatenate([self._rows, gr, gp, diag])
+        cols = np.concatenate([self._cols, gp, gr, diag])
+        vals = np.concatenate([a_data, gv, gv, -np.asarray(C, dtype=float)[idx]])
+        return sp.csc_matrix((vals, (rows, cols)), shape=(n + m, n + m))
+
+    def bordered(self, K: sp.spmatrix, col_u: sp.spmatrix, row_u: sp.spmatrix,
+                 diag: sp.spmatrix) -> sp.csc_matrix:
+        """Append ``k`` unknowns coupled to the velocity only: ``[[K, [col_u; 0]], [[row_u, 0], diag]]``.
+
+        The extension point of the pore-pressure coupling (NUMERICS.md §3.1): for p_f,
+        ``col_u = Grad`` (the ``grad p_f`` force), ``row_u = p_atm Div`` (the gas rows' ``p_atm div u``)
+        and ``diag`` the implicit gas matrix, all restricted by the caller to the wet cells.
+
+        Parameters
+        ----------
+        K : sparse, (n + m, n + m)
+            Output of :meth:`saddle` (m active pressure unknowns).
+        col_u : sparse, (n, k)
+        row_u : sparse, (k, n)
+        diag : sparse, (k, k)
+        """
+        m = K.shape[0] - self.n
+        k = diag.shape[0]
+        col = sp.vstack([sp.csr_matrix(col_u), sp.csr_matrix((m, k))])
+        row = sp.hstack([sp.csr_matrix(row_u), sp.csr_matrix((k, m))])
+        return sp.bmat([[K, col], [row, diag]], format="csc")
+

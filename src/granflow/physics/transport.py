@@ -1,0 +1,235 @@
+"""Conservative transport of the solid fraction, paper eq. syst1b ``d_t phi + div(phi u) = 0``
+(NUMERICS.md §2, §6).
+
+Scheme: finite volumes on the MAC grid with the face velocities frozen over the step; face values
+of phi by MUSCL reconstruction with the minmod limiter (Sweby 1984) from the upwind side; SSP-RK2
+(Heun; Shu & Osher 1988) in time. The walls carry no flux (closed box), so the total mass
+``sum phi dV`` is conserved to round-off by construction.
+
+Bounds. With the CFL number of :func:`cfl_number` (per cell,
+``dt (max(|u_w|, |u_e|)/dx + max(|w_s|, |w_n|)/dz)``) at most 1/2, each forward-Euler stage is a
+convex-type update that keeps ``phi >= 0`` (a minmod face value is at most 3/2 of the cell value
+and the two face values of a cell in one direction sum to twice the cell value), hence SSP-RK2
+too. The upper bound ``phi <= phi_max`` is *not* a property of the transport alone (the velocity
+is divergent; [CD] Theorem th4 obtains it from the dilatancy law): it is measured, then clipped,
+and the clipped mass is reported (:func:`clip_to_bounds`, NUMERICS.md §6).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.grid import Grid
+
+HALF = 0.5
+POSITIVITY_CFL = 0.5
+"""Largest CFL number (:func:`cfl_number`) for which the scheme provably keeps phi >= 0."""
+
+
+def face_velocities(grid: Grid, vel) -> tuple[np.ndarray, np.ndarray]:
+    """Full face arrays ``u (nx+1, nz)``, ``w (nx, nz+1)`` [m s^-1], zero on the walls."""
+    return grid.unpack_velocity(vel)
+
+
+def minmod(a, b):
+    """minmod(a, b) = sign(a) min(|a|, |b|) if a b > 0, else 0."""
+    return np.where(a * b > 0.0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+
+
+def _limited_slopes(phi: np.ndarray, axis: int) -> np.ndarray:
+    """Minmod slope (per cell, in cell units) along ``axis``; zero in the first and last cells
+    (zero-gradient ghost cells at the walls)."""
+    d = np.diff(phi, axis=axis)
+    zero = np.zeros_like(np.take(d, [0], axis=axis))
+    back = np.concatenate([zero, d], axis=axis)   # phi_i - phi_{i-1}
+    fwd = np.concatenate([d, zero], axis=axis)    # phi_{i+1} - phi_i
+    return minmod(back, fwd)
+
+
+def muscl_fluxes(grid: Grid, phi, u: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Face fluxes ``phi_f u`` [m s^-1] with MUSCL-minmod upwind face values.
+
+    Parameters
+    ----------
+    grid : Grid
+    phi : ndarray, (nx, nz)
+        Solid fraction [-].
+    u, w : ndarray
+        Full face velocities, shapes ``(nx+1, nz)`` and ``(nx, nz+1)`` [m s^-1].
+
+    Returns
+    -------
+    fx : ndarray, (nx+1, nz)
+        Flux through the x-faces (zero on the walls).
+    fz : ndarray, (nx, nz+1)
+        Flux through the z-faces (zero on the walls).
+    """
+    phi = np.asarray(phi, dtype=float)
+    fx = np.zeros(grid.xface_shape)
+    fz = np.zeros(grid.zface_shape)
+    sx = _limited_slopes(phi, 0)
+    left = phi[:-1, :] + HALF * sx[:-1, :]   # value at face i+1/2 from cell i
+    right = phi[1:, :] - HALF * sx[1:, :]    # ... from cell i+1
+    ui = u[1:-1, :]
+    fx[1:-1, :] = np.where(ui > 0.0, ui * left, ui * right)
+    sz = _limited_slopes(phi, 1)
+    below = phi[:, :-1] + HALF * sz[:, :-1]
+    above = phi[:, 1:] - HALF * sz[:, 1:]
+    wi = w[:, 1:-1]
+    fz[:, 1:-1] = np.where(wi > 0.0, wi * below, wi * above)
+    return fx, fz
+
+
+def flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    """Cell divergence of face fluxes, ``(fx_e - fx_w)/dx + (fz_n - fz_s)/dz``, shape (nx, nz)."""
+    return np.diff(fx, axis=0) / grid.dx + np.diff(fz, axis=1) / grid.dz
+
+
+def cfl_number(grid: Grid, vel, dt: float) -> float:
+    """Largest cell CFL number ``dt (max(|u_w|,|u_e|)/dx + max(|w_s|,|w_n|)/dz)`` [-].
+
+    :data:`POSITIVITY_CFL` (1/2) is the positivity limit of the MUSCL-minmod SSP-RK2 update.
+    """
+    u, w = face_velocities(grid, vel)
+    au = np.maximum(np.abs(u[:-1, :]), np.abs(u[1:, :])) / grid.dx
+    aw = np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) / grid.dz
+    return float(dt * np.max(au + aw))
+
+
+def stable_dt(grid: Grid, vel, cfl: float) -> float:
+    """Largest dt with :func:`cfl_number` <= ``cfl`` (``inf`` for a fluid at rest) [s]."""
+    rate = cfl_number(grid, vel, 1.0)
+    return float(cfl / rate) if rate > 0 else float("inf")
+
+
+@dataclass(frozen=True)
+class TransportResult:
+    """Outcome of :func:`advect`.
+
+    Attributes
+    ----------
+    phi : ndarray, (nx, nz)
+        Transported solid fraction (not clipped) [-].
+    flux_x, flux_z : ndarray
+        Time-averaged face fluxes of the step (the mass fluxes of SSP-RK2, ``(F^0 + F^1)/2``),
+        shapes ``(nx+1, nz)`` and ``(nx, nz+1)`` [m s^-1]: ``phi - phi^n = -dt div(F)``.
+    """
+
+    phi: np.ndarray
+    flux_x: np.ndarray
+    flux_z: np.ndarray
+
+
+def advect(grid: Grid, phi, vel, dt: float) -> TransportResult:
+    """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b).
+
+    Parameters
+    ----------
+    grid : Grid
+    phi : ndarray, (nx, nz)
+        Solid fraction at t^n [-].
+    vel : ndarray, (n_unknowns,)
+        Face velocities, held fixed over the step [m s^-1].
+    dt : float
+        Time step [s]; keep :func:`cfl_number` <= 1/2 for positivity.
+
+    Returns
+    -------
+    TransportResult
+
+    Examples
+    --------
+    >>> from granflow.grid import Grid
+    >>> g = Grid(nx=8, nz=2, Lx=1.0, Lz=0.25)
+    >>> u = np.zeros(g.xface_shape); u[1:-1] = 1.0
+    >>> vel = g.pack_velocity(u, np.zeros(g.zface_shape))
+    >>> phi = np.zeros(g.cell_shape); phi[2:4] = 0.5
+    >>> out = advect(g, phi, vel, 0.05)
+    >>> bool(np.isclose(out.phi.sum(), phi.sum(), rtol=0, atol=1e-15))
+    True
+    """
+    phi = np.asarray(phi, dtype=float)
+    u, w = face_velocities(grid, vel)
+    fx0, fz0 = muscl_fluxes(grid, phi, u, w)
+    phi1 = phi - dt * flux_divergence(grid, fx0, fz0)
+    fx1, fz1 = muscl_fluxes(grid, phi1, u, w)
+    fx, fz = HALF * (fx0 + fx1), HALF * (fz0 + fz1)
+    return TransportResult(phi=phi - dt * flux_divergence(grid, fx, fz), flux_x=fx, flux_z=fz)
+
+
+def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float) -> np.ndarray:
+    """Solid fraction seen by the mass flux of :func:`advect` at the velocity unknowns [-].
+
+    ``phi_f = F_f / u_f`` with ``F`` the time-averaged SSP-RK2 flux of a step with velocity ``vel``
+    (the upwind MUSCL value, corrected by the second stage), blended with the centred mean
+    ``(phi_L + phi_R)/2`` on slow faces: ``phi_f = c + (F/u - c) min(1, |u|/u_ref)``. Using it in the
+    gravity force ``phi_f rho_s g`` makes the gravity work equal the potential-energy change of the
+    transport on faces faster than ``u_ref`` (energy-consistent gravity, NUMERICS.md §7.2, §9),
+    while a fluid at rest keeps the centred weight (exact discrete hydrostatics).
+
+    Parameters
+    ----------
+    grid : Grid
+    phi : ndarray, (nx, nz)
+    vel : ndarray, (n_unknowns,)
+        Face velocities of the step [m s^-1].
+    dt : float
+        Time step [s].
+    u_ref : float
+        Blending velocity [m s^-1] (> 0).
+    """
+    phi = np.asarray(phi, dtype=float)
+    out = advect(grid, phi, vel, dt)
+    flux = grid.pack_velocity(out.flux_x, out.flux_z)
+    cx = HALF * (phi[:-1, :] + phi[1:, :])
+    cz = HALF * (phi[:, :-1] + phi[:, 1:])
+    centred = np.concatenate([cx.ravel(), cz.ravel()])
+    vel = np.asarray(vel, dtype=float)
+    moving = np.abs(vel) > 0.0
+    upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
+    weight = np.minimum(1.0, np.abs(vel) / u_ref)
+    return centred + (upwind - centred) * weight
+
+
+@dataclass(frozen=True)
+class BoundReport:
+    """What :func:`clip_to_bounds` found and changed.
+
+    Attributes
+    ----------
+    max_before, min_before : float
+        Extremes of phi before clipping [-].
+    clipped_mass : float
+        Mass removed where phi > phi_max, ``sum (phi - phi_max)^+ dV`` [m^2 per unit width].
+    added_mass : float
+        Mass added where phi < 0, ``sum (-phi)^+ dV`` [m^2 per unit width].
+    n_clipped : int
+        Number of cells changed.
+    """
+
+    max_before: float
+    min_before: float
+    clipped_mass: float
+    added_mass: float
+    n_clipped: int
+
+
+def clip_to_bounds(phi: np.ndarray, phi_max: float, cell_volume: float) -> tuple[np.ndarray, BoundReport]:
+    """Clip phi to ``[0, phi_max]`` and report the mass removed/added (NUMERICS.md §6).
+
+    Returns
+    -------
+    phi_clipped : ndarray
+    report : BoundReport
+    """
+    over = np.maximum(phi - phi_max, 0.0)
+    under = np.maximum(-phi, 0.0)
+    report = BoundReport(
+        max_before=float(np.max(phi)),
+        min_before=float(np.min(phi)),
+        clipped_mass=float(over.sum() * cell_volume),
+        added_mass=float(under.sum() * cell_volume),
+        n_clipped=int(np.count_nonzero(over) + np.count_nonzero(under)),
+    )
+    return np.clip(phi, 0.0, phi_max), report

@@ -1,0 +1,124 @@
+"""State of the solver: the fields of the model on the MAC grid and the clock (NUMERICS.md §13).
+
+=========  ==========================  ==========================================================
+field      shape                       meaning
+=========  ==========================  ==========================================================
+``phi``    ``(nx, nz)``                solid volume fraction at cell centres [-] (paper eq. syst1b)
+``vel``    ``(grid.n_unknowns,)``      solid velocity on the interior faces, u then w [m s^-1]
+                                       (:meth:`granflow.grid.Grid.pack_velocity`)
+``p``      ``(nx, nz)``                granular pressure at cell centres [Pa] (p >= 0; p = 0 in
+                                       the ambient and in "free" cells, NUMERICS.md §5.4)
+``p_f``    ``(nx, nz)``                pore-gas over-pressure at cell centres [Pa] (zero in the
+                                       dry model)
+``t``      scalar                      time [s]
+``step``   scalar                      number of accepted steps
+=========  ==========================  ==========================================================
+
+A :class:`State` is mutable: :meth:`granflow.model.Model.advance` updates it in place, and the
+:class:`granflow.simulation.Simulation` keeps a :meth:`State.copy` to restore a rejected step.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.errors import GranflowInputError
+from granflow.grid import Grid
+
+
+def _field(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    a = np.array(value, dtype=float)  # always a private copy
+    if a.ndim == 0:
+        a = np.full(shape, float(a))
+    if a.shape != shape:
+        raise GranflowInputError(f"State: {name} must have shape {shape}, got {a.shape}")
+    return a
+
+
+@dataclass(eq=False)
+class State:
+    """Fields and clock of a run (see the module docstring for shapes and units).
+
+    Parameters
+    ----------
+    phi : ndarray, (nx, nz)
+        Solid volume fraction [-].
+    vel : ndarray, (n_unknowns,)
+        Velocity unknowns [m s^-1].
+    p : ndarray, (nx, nz)
+        Granular pressure [Pa].
+    p_f : ndarray, (nx, nz)
+        Pore-gas over-pressure [Pa].
+    t : float
+        Time [s].
+    step : int
+        Number of accepted steps.
+    """
+
+    phi: np.ndarray
+    vel: np.ndarray
+    p: np.ndarray
+    p_f: np.ndarray
+    t: float = 0.0
+    step: int = 0
+
+    @classmethod
+    def at_rest(cls, grid: Grid, phi, p=0.0, p_f=0.0, t: float = 0.0) -> State:
+        """A state with zero velocity.
+
+        Parameters
+        ----------
+        grid : Grid
+        phi : array_like, (nx, nz) or scalar
+            Solid volume fraction [-].
+        p, p_f : array_like or float, optional
+            Granular and pore pressures [Pa]; default 0 (see
+            :meth:`granflow.model.Model.initial_state` for a lithostatic ``p``).
+        t : float
+            Initial time [s].
+
+        Examples
+        --------
+        >>> from granflow.grid import Grid
+        >>> s = State.at_rest(Grid(nx=3, nz=2, Lx=3.0, Lz=2.0), phi=0.6)
+        >>> s.vel.shape, float(s.phi.sum())
+        ((7,), 3.6)
+        """
+        shape = grid.cell_shape
+        return cls(
+            phi=_field("phi", phi, shape),
+            vel=np.zeros(grid.n_unknowns),
+            p=_field("p", p, shape),
+            p_f=_field("p_f", p_f, shape),
+            t=float(t),
+            step=0,
+        )
+
+    def check(self, grid: Grid) -> None:
+        """Raise :class:`GranflowInputError` if a field does not fit ``grid``."""
+        for name, shape in (("phi", grid.cell_shape), ("p", grid.cell_shape),
+                            ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,))):
+            a = getattr(self, name)
+            if not isinstance(a, np.ndarray) or a.shape != shape:
+                got = getattr(a, "shape", type(a).__name__)
+                raise GranflowInputError(f"State: {name} must have shape {shape}, got {got}")
+
+    def copy(self) -> State:
+        """Deep copy (independent arrays)."""
+        return State(phi=self.phi.copy(), vel=self.vel.copy(), p=self.p.copy(),
+                     p_f=self.p_f.copy(), t=self.t, step=self.step)
+
+    def restore(self, other: State) -> None:
+        """Overwrite this state, in place, with a copy of ``other`` (undo a rejected step)."""
+        self.phi = other.phi.copy()
+        self.vel = other.vel.copy()
+        self.p = other.p.copy()
+        self.p_f = other.p_f.copy()
+        self.t = other.t
+        self.step = other.step
+
+    def is_finite(self) -> bool:
+        """True if every field is finite (the default NaN check of the Simulation)."""
+        return bool(all(np.all(np.isfinite(a)) for a in (self.phi, self.vel, self.p, self.p_f))
+                    and np.isfinite(self.t))
