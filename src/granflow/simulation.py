@@ -8,14 +8,28 @@
 * callbacks ``func(simulation)`` run on schedules (:class:`IterationInterval`,
   :class:`TimeInterval`), also once at the start;
 * the energy budget (:class:`granflow.diagnostics.EnergyBudget`) is updated after every accepted
-  step, and wall times per phase (assembly, solve, transport, diagnostics) are accumulated.
+  step, and wall times per phase (assembly, solve, transport, diagnostics) are accumulated;
+* running totals over the whole run (:class:`RunTotals`: clipped mass, rejected steps, phi
+  extremes before clipping, ...) survive a restart;
+* :meth:`Simulation.request_stop` ends :meth:`Simulation.run` cleanly after the current step
+  (the CLI calls it on Ctrl-C); an exception raised inside a step (e.g. ``KeyboardInterrupt``)
+  restores the state of the start of that step before propagating, so the state is always that of
+  an accepted step;
+* :meth:`Simulation.checkpoint_payload` / :meth:`Simulation.restore_checkpoint`: everything a
+  restart needs (state, clock, energy budget, totals, the phase of time schedules), stored exactly,
+  so that a restarted run reproduces the uninterrupted one bit for bit
+  (:mod:`granflow.output.checkpoint`).
 """
 from __future__ import annotations
 
 import math
+import re
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
 
 from granflow.diagnostics import EnergyBudget
 from granflow.errors import GranflowError, GranflowInputError
@@ -34,8 +48,85 @@ TIME_EPS = 1e-12
 """Relative tolerance on times (stop time, output times)."""
 
 
+STATE_ARRAYS = ("phi", "vel", "p", "p_f")
+"""State arrays stored in a checkpoint (under ``state.<name>``)."""
+
+
 class StepFailure(GranflowError):
-    """A step failed even after ``max_retries`` halvings of dt."""
+    """A step failed even after ``max_retries`` halvings of dt.
+
+    Attributes
+    ----------
+    t : float
+        Time of the last accepted state [s] (the failed step started there).
+    step : int
+        Number of the step that failed (accepted steps + 1).
+    attempts : list of str
+        One message per attempt (``"dt=...: <what failed>"``).
+    """
+
+    def __init__(self, message: str, t: float = float("nan"), step: int = -1,
+                 attempts: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.t = t
+        self.step = step
+        self.attempts = list(attempts or [])
+
+
+def nonfinite_message(state: State, grid) -> str:
+    """Name the first non-finite field of ``state`` and where it is (cell index and x, z [m])."""
+    for name in ("phi", "p", "p_f"):
+        a = getattr(state, name)
+        bad = np.argwhere(~np.isfinite(a))
+        if bad.size:
+            i, j = (int(v) for v in bad[0])
+            return (f"non-finite {name} ({a[i, j]!r}) in {len(bad)} cell(s), first at cell ({i}, {j}), "
+                    f"x = {grid.xc[i]:.4g} m, z = {grid.zc[j]:.4g} m")
+    bad = np.flatnonzero(~np.isfinite(state.vel))
+    if bad.size:
+        k = int(bad[0])
+        comp = "u" if k < grid.n_u else "w"
+        return f"non-finite velocity {comp} on {bad.size} face(s), first at unknown {k}"
+    return "non-finite time" if not math.isfinite(state.t) else "state is finite"
+
+
+def _summarise(messages: list[str]) -> str:
+    """The distinct kinds of failure of the attempts (numbers ignored), the last of each kind with
+    its count: ``"Picard diverged (relative increment 0.03) [x7]"``."""
+    kinds: dict[str, tuple[str, int]] = {}
+    for m in messages:
+        text = m.split(": ", 1)[-1]
+        key = re.sub(r"[-+]?[0-9][0-9.e+-]*", "#", text)
+        kinds[key] = (text, kinds.get(key, ("", 0))[1] + 1)
+    return "; ".join(text + (f" [x{n}]" if n > 1 else "") for text, n in kinds.values())
+
+
+@dataclass
+class RunTotals:
+    """Running totals over all accepted steps of a run (restored by a restart)."""
+
+    rejected: int = 0
+    """Rejected attempts (each retried with dt/2)."""
+    clipped_mass: float = 0.0
+    """Mass removed by clipping phi to phi_max [m^2]."""
+    added_mass: float = 0.0
+    """Mass added by clipping phi to 0 [m^2]."""
+    max_phi_before_clip: float = -math.inf
+    min_phi_before_clip: float = math.inf
+    picard_iterations: int = 0
+    not_converged: int = 0
+    """Accepted steps whose Picard loop stopped at ``max_sweeps``."""
+    max_negative_Z: int = 0
+    """Largest number of dense cells with Z < 0 in one step."""
+
+    def record(self, report: StepReport) -> None:
+        self.clipped_mass += report.clipped_mass
+        self.added_mass += report.added_mass
+        self.max_phi_before_clip = max(self.max_phi_before_clip, report.max_phi_before_clip)
+        self.min_phi_before_clip = min(self.min_phi_before_clip, report.min_phi_before_clip)
+        self.picard_iterations += report.picard_iterations
+        self.not_converged += int(report.status.value == "not_converged")
+        self.max_negative_Z = max(self.max_negative_Z, report.n_negative_Z)
 
 
 @dataclass
@@ -128,9 +219,20 @@ class Simulation:
         self.callbacks: list[Callback] = list(callbacks or [])
         self.reports: list[StepReport] = []
         self.n_rejected = 0
+        self.totals = RunTotals()
         self.budget = EnergyBudget.start(model, state)
         self.timings = {"assembly": 0.0, "solve": 0.0, "transport": 0.0, "diagnostics": 0.0}
+        self.stop_reason = ""
         self._started = False
+
+    @property
+    def stop_requested(self) -> bool:
+        """True once :meth:`request_stop` was called."""
+        return bool(self.stop_reason)
+
+    def request_stop(self, reason: str = "stop requested") -> None:
+        """Make :meth:`run` return after the step in progress (safe to call from a signal handler)."""
+        self.stop_reason = reason or "stop requested"
 
     def add_callback(self, func: Callable[[Simulation], None], schedule, name: str = "") -> None:
         """Register ``func(simulation)`` on ``schedule``."""
@@ -148,25 +250,38 @@ class Simulation:
         return dt
 
     def step(self) -> StepReport:
-        """One accepted step (with retries); raises :class:`StepFailure`."""
-        dt = self.time_step()
+        """One accepted step (with retries); raises :class:`StepFailure`.
+
+        If anything raises during the attempts (e.g. ``KeyboardInterrupt``), the state of the
+        start of the step is restored before the exception propagates.
+        """
+        dt = dt0 = self.time_step()
         backup = self.state.copy()
         messages = []
-        for _ in range(self.max_retries + 1):
-            report = self.model.advance(self.state, dt)
-            for k, v in report.timings.items():
-                self.timings[k] = self.timings.get(k, 0.0) + v
-            if not report.failed and self.state.is_finite():
-                break
-            messages.append(f"dt={dt:.3g}: {report.message or 'non-finite state'}")
+        try:
+            for _ in range(self.max_retries + 1):
+                report = self.model.advance(self.state, dt)
+                for k, v in report.timings.items():
+                    self.timings[k] = self.timings.get(k, 0.0) + v
+                if not report.failed and self.state.is_finite():
+                    break
+                what = report.message if report.failed else nonfinite_message(self.state, self.model.grid)
+                messages.append(f"dt={dt:.3g}: {what}")
+                self.state.restore(backup)
+                self.n_rejected += 1
+                self.totals.rejected += 1
+                dt *= RETRY_FACTOR
+            else:
+                raise StepFailure(
+                    f"step {self.state.step + 1} at t = {self.state.t:.6g} s failed {len(messages)} times "
+                    f"(dt {dt0:.3g} down to {dt / RETRY_FACTOR:.3g} s): " + _summarise(messages),
+                    t=self.state.t, step=self.state.step + 1, attempts=messages)
+        except BaseException:
             self.state.restore(backup)
-            self.n_rejected += 1
-            dt *= RETRY_FACTOR
-        else:
-            raise StepFailure(f"step at t = {self.state.t:.6g} s failed {self.max_retries + 1} times: "
-                              + "; ".join(messages))
+            raise
         t0 = time.perf_counter()
         self.reports.append(report)
+        self.totals.record(report)
         self.budget.record(report, self.state)
         self._run_callbacks()
         self.timings["diagnostics"] += time.perf_counter() - t0
@@ -178,19 +293,90 @@ class Simulation:
                 cb.func(self)
 
     def done(self) -> bool:
+        """True at ``stop_time`` or after ``max_steps`` steps of this Simulation object."""
         if self.max_steps is not None and len(self.reports) >= self.max_steps:
             return True
         return self.state.t >= self.stop_time - TIME_EPS * max(1.0, self.stop_time)
 
     def run(self) -> Simulation:
-        """Advance until :meth:`done`; returns ``self``."""
+        """Advance until :meth:`done` or :meth:`request_stop`; returns ``self``."""
         if not self._started:
             self._started = True
             if not self.state.is_finite():
-                raise StepFailure("initial state is not finite")
+                raise StepFailure("initial state is not finite: "
+                                  + nonfinite_message(self.state, self.model.grid),
+                                  t=self.state.t, step=self.state.step)
             t0 = time.perf_counter()
             self._run_callbacks()
             self.timings["diagnostics"] += time.perf_counter() - t0
-        while not self.done():
+        while not self.done() and not self.stop_requested:
             self.step()
         return self
+
+    # --- checkpoint / restart -----------------------------------------------------------------
+    def _schedule_keys(self) -> list[tuple[str, Callback]]:
+        return [(f"schedule.{cb.name or i}", cb) for i, cb in enumerate(self.callbacks)
+                if isinstance(cb.schedule, TimeInterval)]
+
+    def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """``(arrays, scalars)`` with everything a bit-identical restart needs.
+
+        Arrays: ``state.<phi|vel|p|p_f>`` and the array fields of the energy budget
+        (``budget.rho_f``). Scalars: ``state.t``, ``state.step``, the other budget fields, :class:`RunTotals`, and the next due time of every
+        :class:`TimeInterval` callback (``schedule.<name>``), which decides future time steps.
+        Save them with :func:`granflow.output.checkpoint.save_checkpoint` (exact round trip).
+        """
+        st, b = self.state, self.budget
+        arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS}
+        scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected}
+        for f in fields(b):  # every float, array and dict-of-floats field of the budget
+            value = getattr(b, f.name)
+            if isinstance(value, np.ndarray):
+                arrays[f"budget.{f.name}"] = value
+            elif isinstance(value, dict):
+                scalars.update({f"budget.{f.name}.{k}": v for k, v in value.items()})
+            elif isinstance(value, (int, float)):
+                scalars[f"budget.{f.name}"] = value
+        scalars.update({f"totals.{f.name}": getattr(self.totals, f.name) for f in fields(RunTotals)})
+        scalars.update({key: cb.schedule._next for key, cb in self._schedule_keys()})
+        return arrays, scalars
+
+    def restore_checkpoint(self, arrays: Mapping[str, np.ndarray], scalars: Mapping[str, Any]) -> None:
+        """Continue from a :meth:`checkpoint_payload` (as loaded from a checkpoint file).
+
+        Time schedules are matched by callback name; schedules absent from the checkpoint keep
+        their phase.
+
+        Raises
+        ------
+        GranflowInputError
+            If an entry is missing or the arrays do not fit the model's grid.
+        """
+        b = self.budget
+        try:
+            state = State(**{k: np.array(arrays[f"state.{k}"]) for k in STATE_ARRAYS},
+                          t=float(scalars["state.t"]), step=int(scalars["state.step"]))
+            budget: dict[str, Any] = {}
+            for f in fields(b):
+                value, key = getattr(b, f.name), f"budget.{f.name}"
+                if isinstance(value, np.ndarray):
+                    budget[f.name] = np.array(arrays[key])
+                    if budget[f.name].shape != value.shape:
+                        raise GranflowInputError(f"checkpoint: {key} does not fit the grid")
+                elif isinstance(value, dict):
+                    budget[f.name] = {k: float(scalars[f"{key}.{k}"]) for k in value}
+                elif isinstance(value, (int, float)):
+                    budget[f.name] = type(value)(scalars[key])
+            totals = RunTotals(**{f.name: scalars[f"totals.{f.name}"] for f in fields(RunTotals)})
+            n_rejected = int(scalars["n_rejected"])
+        except KeyError as err:
+            raise GranflowInputError(f"checkpoint: missing entry {err}") from None
+        state.check(self.model.grid)
+        self.state.restore(state)
+        for k, v in budget.items():
+            setattr(b, k, v)
+        self.totals = totals
+        self.n_rejected = n_rejected
+        for key, cb in self._schedule_keys():
+            if key in scalars:
+                cb.schedule._next = float(scalars[key])

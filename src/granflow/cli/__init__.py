@@ -3,7 +3,8 @@
 Exit codes: 0 success; 1 a check or computation ran but reported failure where the command is a
 verdict (``granflow check --strict``); 2 bad input (unknown closure, unknown or invalid parameter,
 unparsable expression), printed as one line ``granflow: error: ...`` without a traceback;
-3 an unexpected internal error (with the traceback, so it can be reported).
+3 an unexpected internal error (with the traceback, so it can be reported); ``granflow run`` adds
+130 for an interrupted run (see :mod:`granflow.cli.run`).
 """
 from __future__ import annotations
 
@@ -40,10 +41,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"granflow {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
+    from granflow.cli import run as run_cli
+
     p = sub.add_parser("list", help="list registered parts")
-    p.add_argument("what", choices=["closures", "equilibria"])
+    p.add_argument("what", choices=["closures", "equilibria", "cases"])
     p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.set_defaults(func=commands.cmd_list)
+    p.set_defaults(func=run_cli.cmd_list)
+    run_cli.add_parsers(sub, _Parser)
 
     def closure_args(q: argparse.ArgumentParser) -> None:
         q.add_argument("closure", help="closure registry key (granflow list closures)")

@@ -1,0 +1,91 @@
+"""Case ``column_collapse``: a rectangular granular column released at t = 0 (issue 4).
+
+The column ``[0, L0] x [0, H0]`` (cells cut by its edges are filled in proportion to the covered
+area, so the initial mass is exactly ``phi0 H0 L0`` per unit width) rests against the west wall of
+the box. With the default free-slip west wall that wall is a symmetry plane, so ``L0`` is the
+half-width of a symmetric column of width ``2 L0`` (Lajeunesse et al. 2005; Lube et al. 2005;
+Lagree, Staron & Popinet 2011). The base is no-slip by default; tilt gravity with
+``gravity.slope_deg`` for an inclined base. The initial pressure is the discrete lithostatic one
+(:meth:`granflow.model.Model.lithostatic_pressure`), the first Picard iterate.
+
+Dry by default. An initially fluidised column -- pore pressure ``p_f = b0`` times the lithostatic
+pressure, typically with an expanded packing ``phi0 < phi_max`` -- needs ``[gas] law = "linear"``
+or ``"nonlinear"``; with a :class:`granflow.model.Model` that has no ``gas`` option this is
+reported, at load time, as not yet supported.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import Field
+
+from granflow.cases.common import (
+    GAS_OPTION,
+    NOT_YET,
+    extent_problems,
+    gas_problems,
+    initial_state,
+    make_model,
+    make_simulation,
+    model_supports,
+    packing,
+    packing_problems,
+    rectangle_fraction,
+)
+from granflow.cases.registry import CASES
+from granflow.config import CaseConfig, Section
+from granflow.simulation import Simulation
+
+
+class ColumnCollapseSetup(Section):
+    """``[setup]`` of ``column_collapse``."""
+
+    H0: float = Field(0.1, gt=0, description="initial column height [m]")
+    L0: float = Field(0.1, gt=0, description="initial column width from the west wall (the "
+                      "half-width of a symmetric column when the west wall is free-slip) [m]")
+    phi0: float | None = Field(None, gt=0, lt=1, description="initial packing fraction "
+                               "(default: material.phi_max) [-]")
+    b0: float = Field(0.0, ge=0, le=1, description="initial pore pressure as a fraction of the "
+                      "lithostatic pressure (needs [gas]) [-]")
+
+
+def check(config: CaseConfig) -> list[tuple[str, str]]:
+    s = config.setup
+    out = packing_problems(config) + gas_problems(config)
+    out += extent_problems(config, "setup.H0", s.H0, "z") + extent_problems(config, "setup.L0", s.L0, "x")
+    if s.L0 >= config.grid.Lx:
+        out.append(("setup.L0", f"{s.L0} m leaves no room to spread (grid.Lx = {config.grid.Lx} m)"))
+    if s.b0 > 0 and not model_supports(GAS_OPTION):
+        out.append(("setup.b0", f"an initially fluidised column (b0 = {s.b0} > 0) {NOT_YET}; set b0 = 0"))
+    elif s.b0 > 0 and config.gas.law == "none":
+        out.append(("setup.b0", 'an initial pore pressure needs gas.law = "linear" or "nonlinear"'))
+    return out
+
+
+def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
+    """Aspect ratio and normalised run-out inputs: a = H0/L0, initial mass."""
+    s = config.setup
+    return {"H0_m": s.H0, "L0_m": s.L0, "aspect_ratio": s.H0 / s.L0, "phi0": packing(config),
+            "b0": s.b0}
+
+
+@CASES.register("column_collapse", setup_model=ColumnCollapseSetup, check=check,
+                diagnostics=diagnostics,
+                summary="rectangular column H0 x L0 against the west wall collapses and spreads")
+def setup(config: CaseConfig) -> Simulation:
+    """Model, initial state and stop criteria of a column collapse.
+
+    Parameters
+    ----------
+    config : CaseConfig
+        With ``case.name = "column_collapse"``.
+
+    Returns
+    -------
+    Simulation
+    """
+    s = config.setup
+    model = make_model(config)
+    g = model.grid
+    phi = packing(config) * rectangle_fraction(g, 0.0, s.L0, 0.0, s.H0)
+    return make_simulation(config, model, initial_state(model, phi, s.b0))

@@ -1,0 +1,140 @@
+"""Pieces shared by the cases: the Model and Simulation of a :class:`~granflow.config.CaseConfig`,
+pore-gas support detection, exact cell fractions of rectangles, and shared checks."""
+from __future__ import annotations
+
+import inspect
+from typing import Any
+
+import numpy as np
+
+from granflow.config import CaseConfig
+from granflow.errors import GranflowInputError
+from granflow.grid import Grid, VelocityBCs
+from granflow.model import Model
+from granflow.simulation import Simulation
+from granflow.state import State
+
+GAS_OPTION = "gas"
+"""Keyword of :class:`granflow.model.Model` that switches the pore-gas coupling on (when it exists)."""
+INJECTION_OPTION = "U_inj"
+"""Keyword of :class:`granflow.model.Model` for the gas injected through the base (when it exists)."""
+OPEN_TOP_OPTION = "open_top"
+"""Keyword of :class:`granflow.model.Model` for ``p_f = 0`` on the top wall (when it exists)."""
+NOT_YET = ("needs the pore-gas model, which this granflow's Model does not support yet "
+           "(dry solver only): not yet supported")
+
+
+def model_supports(option: str) -> bool:
+    """True if :class:`granflow.model.Model` accepts the keyword ``option``."""
+    return option in inspect.signature(Model).parameters
+
+
+def make_grid(config: CaseConfig) -> Grid:
+    g = config.grid
+    return Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz)
+
+
+def gas_options(config: CaseConfig) -> dict[str, Any]:
+    """Keywords of the pore-gas model for :class:`Model` (empty for the dry model)."""
+    if config.gas.law == "none":
+        return {}
+    if not model_supports(GAS_OPTION):
+        raise GranflowInputError(f"gas.law = {config.gas.law!r} {NOT_YET}")
+    from granflow.physics.pore_pressure import GasLaw
+
+    options: dict[str, Any] = {GAS_OPTION: GasLaw(config.gas.law)}
+    for key, option, value, default in ((INJECTION_OPTION, INJECTION_OPTION, config.gas.U_inj, 0.0),
+                                        ("open_top", OPEN_TOP_OPTION, config.gas.open_top, False)):
+        if value != default:
+            if not model_supports(option):
+                raise GranflowInputError(f"gas.{key}: this granflow's Model has no {option!r} option "
+                                         "(not yet supported)")
+            options[option] = value
+    return options
+
+
+def gas_problems(config: CaseConfig) -> list[tuple[str, str]]:
+    """Load-time check of the ``[gas]`` section against what the Model supports."""
+    if config.gas.law != "none" and not model_supports(GAS_OPTION):
+        return [("gas.law", f"{config.gas.law!r} {NOT_YET}; use law = \"none\"")]
+    out = []
+    if config.gas.law == "none":
+        if config.gas.U_inj > 0:
+            out.append(("gas.U_inj", 'gas injection needs gas.law = "linear" or "nonlinear"'))
+        if config.gas.open_top:
+            out.append(("gas.open_top", 'needs gas.law = "linear" or "nonlinear"'))
+    else:
+        for key, option in (("U_inj", INJECTION_OPTION), ("open_top", OPEN_TOP_OPTION)):
+            if getattr(config.gas, key) and not model_supports(option):
+                out.append((f"gas.{key}", f"this granflow's Model has no {option!r} option (not yet supported)"))
+    return out
+
+
+def make_model(config: CaseConfig) -> Model:
+    """The :class:`Model` of ``config``: grid, closure, gravity, walls, numerics, gas."""
+    n, w = config.numerics, config.walls
+    bcs = VelocityBCs(west=w.west, east=w.east, bottom=w.bottom, top=w.top)
+    return Model(make_grid(config), config.make_closure(), gravity=config.gravity_vector, bcs=bcs,
+                 eps=n.eps, ambient=n.ambient, picard=n.picard, delta_p=n.delta_p,
+                 interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
+                 consistent_gravity=n.consistent_gravity, advection=n.advection,
+                 **gas_options(config))
+
+
+def initial_state(model: Model, phi, b0: float = 0.0) -> State:
+    """State at rest with the lithostatic pressure; with ``b0 > 0`` (gas models only) the pore
+    pressure ``p_f = b0 p_lith`` carries that fraction of the weight (``p = p_lith - p_f``)."""
+    if b0 == 0.0:
+        return model.initial_state(phi)
+    p_f = b0 * model.lithostatic_pressure(phi)
+    if "p_f" in inspect.signature(model.initial_state).parameters:
+        return model.initial_state(phi, p_f=p_f)
+    state = model.initial_state(phi)  # pragma: no cover - Models without p_f in initial_state
+    state.p_f, state.p = p_f, np.maximum(state.p - p_f, 0.0)
+    return state
+
+
+def make_simulation(config: CaseConfig, model: Model, state: State) -> Simulation:
+    """A :class:`Simulation` with the ``[time]`` options."""
+    t = config.time
+    return Simulation(model, state, stop_time=t.stop_time, cfl=t.cfl, dt_max=t.dt_max,
+                      max_retries=t.max_retries, max_steps=t.max_steps)
+
+
+def rectangle_fraction(grid: Grid, x0: float, x1: float, z0: float, z1: float) -> np.ndarray:
+    """Fraction of each cell's area inside ``[x0, x1] x [z0, z1]`` [-], shape (nx, nz) (exact)."""
+    fx = np.clip((np.minimum(grid.xf[1:], x1) - np.maximum(grid.xf[:-1], x0)) / grid.dx, 0.0, 1.0)
+    fz = np.clip((np.minimum(grid.zf[1:], z1) - np.maximum(grid.zf[:-1], z0)) / grid.dz, 0.0, 1.0)
+    return np.outer(fx, fz)
+
+
+def packing(config: CaseConfig) -> float:
+    """``setup.phi0``, or ``material.phi_max`` when not given [-]."""
+    phi0 = getattr(config.setup, "phi0", None)
+    return config.material.phi_max if phi0 is None else phi0
+
+
+def packing_problems(config: CaseConfig) -> list[tuple[str, str]]:
+    """``phi_c <= phi0 <= phi_max``."""
+    phi0, m, a = packing(config), config.material, config.numerics.ambient
+    out = []
+    if phi0 > m.phi_max:
+        out.append(("setup.phi0", f"{phi0} exceeds material.phi_max = {m.phi_max}"))
+    if phi0 < a.phi_c:
+        out.append(("setup.phi0", (f"{phi0} is below numerics.ambient.phi_c = {a.phi_c}: the grains "
+                                   "would be treated as the pressureless ambient")))
+    if not a.phi_c < m.phi_max:
+        out.append(("numerics.ambient.phi_c", f"{a.phi_c} must be below material.phi_max = {m.phi_max}"))
+    return out
+
+
+def extent_problems(config: CaseConfig, key: str, size: float, axis: str) -> list[tuple[str, str]]:
+    """A length ``size`` [m] along ``axis`` must span at least one cell and fit in the box."""
+    g = config.grid
+    length, cell = (g.Lx, g.Lx / g.nx) if axis == "x" else (g.Lz, g.Lz / g.nz)
+    box = "grid.Lx" if axis == "x" else "grid.Lz"
+    if size > length:
+        return [(key, f"{size} m does not fit in the box ({box} = {length} m)")]
+    if size < cell:
+        return [(key, f"{size} m is smaller than one cell ({cell:.4g} m); refine the grid")]
+    return []

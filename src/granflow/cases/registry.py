@@ -1,0 +1,110 @@
+"""The case registry: ``setup(config) -> Simulation`` functions keyed by name (STYLE.md idioms 2, 5;
+PyClaw's ``setup()`` convention).
+
+A case registers its setup function together with the pydantic model of its ``[setup]`` section,
+a one-line summary, an optional consistency check (cross-section conditions such as
+``setup.phi0 <= material.phi_max``, run at load time so that errors come before any computation)
+and optional case-specific diagnostics for ``summary.json``.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from granflow.errors import UnknownNameError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from granflow.config import CaseConfig, Section
+    from granflow.simulation import Simulation
+
+Problems = list[tuple[str, str]]
+"""``[(key path, message), ...]`` returned by a case's check."""
+
+
+def _no_problems(config: CaseConfig) -> Problems:
+    return []
+
+
+def _no_diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
+    return {}
+
+
+@dataclass(frozen=True)
+class Case:
+    """One registered case.
+
+    Attributes
+    ----------
+    name : str
+        Registry key (``[case] name`` in a case file).
+    setup : callable
+        ``setup(config) -> Simulation``: model, initial state and stop criteria from the config;
+        no output (the runner attaches writers, checkpoints and progress).
+    setup_model : type
+        Pydantic model of the ``[setup]`` section (a :class:`granflow.config.Section`).
+    summary : str
+        One line for ``granflow list cases``.
+    check : callable
+        ``check(config) -> [(key path, message), ...]``: consistency conditions across sections.
+    diagnostics : callable
+        ``diagnostics(simulation, config) -> dict``: case-specific entries of ``summary.json``.
+    """
+
+    name: str
+    setup: Callable[[CaseConfig], Simulation]
+    setup_model: type[Section]
+    summary: str
+    check: Callable[[CaseConfig], Problems] = _no_problems
+    diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] = _no_diagnostics
+
+
+class CaseRegistry:
+    """Name -> :class:`Case`."""
+
+    def __init__(self) -> None:
+        self._cases: dict[str, Case] = {}
+
+    def register(self, name: str, *, setup_model: type[Section], summary: str,
+                 check: Callable[[CaseConfig], Problems] | None = None,
+                 diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] | None = None
+                 ) -> Callable[[Callable[[CaseConfig], Simulation]], Callable[[CaseConfig], Simulation]]:
+        """Decorator registering ``setup`` as the case ``name``."""
+
+        def deco(setup: Callable[[CaseConfig], Simulation]) -> Callable[[CaseConfig], Simulation]:
+            if name in self._cases:
+                raise ValueError(f"case {name!r} is already registered")
+            self._cases[name] = Case(name, setup, setup_model, summary, check or _no_problems,
+                                     diagnostics or _no_diagnostics)
+            return setup
+
+        return deco
+
+    def unregister(self, name: str) -> None:
+        """Remove a case (for cases registered by tests)."""
+        self._cases.pop(name, None)
+        from granflow.config import _config_model
+
+        _config_model.cache_clear()
+
+    def get(self, name: str) -> Case:
+        try:
+            return self._cases[name]
+        except KeyError:
+            raise UnknownNameError(f"unknown case {name!r}; expected one of: {', '.join(self.names())}") from None
+
+    def names(self) -> list[str]:
+        return sorted(self._cases)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._cases
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names())
+
+    def __len__(self) -> int:
+        return len(self._cases)
+
+
+CASES = CaseRegistry()
+"""The registry of cases (``granflow list cases``)."""

@@ -1,0 +1,390 @@
+"""Run a case with output: NetCDF fields, ``summary.json``, checkpoints, restart, progress.
+
+:class:`CaseRun` builds the :class:`~granflow.simulation.Simulation` of a case through the
+registry and hangs on it, in this order (the checkpoint last, so that a periodic checkpoint
+sees every other callback of its step done):
+
+1. ``output`` (:class:`~granflow.simulation.TimeInterval` ``output.interval``): one NetCDF record
+   (:class:`granflow.output.NetCDFWriter`, synced after each record, so a killed run leaves a
+   readable file) of phi, u and w at cell centres, p, p_f, |S|, the kinetic energy and the front;
+2. ``monitor`` (every step): rest detection for ``t_rest`` and the progress report;
+3. ``checkpoint`` (every ``output.checkpoint_interval`` steps):
+   ``checkpoints/checkpoint_<step>.npz`` (:class:`granflow.output.CheckpointManager`).
+
+Whatever ends the run -- the stop time, a :class:`~granflow.simulation.StepFailure`, a
+``KeyboardInterrupt`` or :meth:`~granflow.simulation.Simulation.request_stop` -- the state of the
+last accepted step gets a checkpoint and ``summary.json`` (written atomically); a completed run
+also gets a final NetCDF record if the stop time is not an output time (an interrupted or failed
+run keeps its records on the output times, so that its restart rewrites the same file). A restart (``restart=`` a checkpoint file or a run directory) restores the state,
+the energy budget, the totals, the phase of the output schedule and the diagnostics history, and
+continues the NetCDF file (records after the checkpoint time are dropped and written again), so a
+restarted run reproduces the uninterrupted one bit for bit.
+"""
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import netCDF4
+import numpy as np
+
+from granflow import diagnostics as dg
+from granflow.cases.registry import CASES
+from granflow.config import CaseConfig
+from granflow.errors import GranflowInputError
+from granflow.output import (
+    CheckpointManager,
+    NetCDFWriter,
+    VariableSpec,
+    load_checkpoint,
+    write_json_atomic,
+)
+from granflow.output.checkpoint import CHECKPOINT_GLOB
+from granflow.output.netcdf import git_revision
+from granflow.simulation import IterationInterval, Simulation, StepFailure, TimeInterval
+
+logger = logging.getLogger(__name__)
+
+OUTPUT_FILE = "output.nc"
+SUMMARY_FILE = "summary.json"
+CHECKPOINT_DIR = "checkpoints"
+REST_SPEED_FACTOR = 10.0
+"""Default rest speed = REST_SPEED_FACTOR eps Lz [m s^-1] (eps Lz is the creep speed scale)."""
+EVERY_STEP = 1
+
+#: NetCDF declarations of the cell-centred fields (name -> units, long_name).
+FIELD_SPECS = {
+    "phi": ("1", "solid volume fraction"),
+    "u": ("m s-1", "horizontal solid velocity (cell-centred mean of the face values)"),
+    "w": ("m s-1", "vertical solid velocity (cell-centred mean of the face values)"),
+    "p": ("Pa", "granular pressure"),
+    "p_f": ("Pa", "pore-gas over-pressure (zero in the dry model)"),
+    "S": ("s-1", "norm of the deviatoric strain rate |S|, |S|^2 = S:S/2"),
+}
+SERIES_SPECS = {
+    "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
+    "x_front": ("m", ("front position: right edge of the furthest column with deposit thickness "
+                      "above the threshold")),
+}
+UNITS = {
+    "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
+    "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
+    "clipped_mass": "1 (fraction of the initial mass)", "phi_min": "1", "phi_max": "1",
+    "energy_residual_rel": "1 (of the released potential energy)", "energy": "J m-1",
+    "wall_s": "s", "t_final": "s",
+}
+
+
+class RunStatus(str, enum.Enum):
+    """How a run ended."""
+
+    COMPLETED = "completed"
+    INTERRUPTED = "interrupted"
+    FAILED = "failed"
+    """A step failed after all dt halvings (:class:`~granflow.simulation.StepFailure`)."""
+    ERROR = "error"
+    """An unexpected exception (a bug); re-raised after the output is saved."""
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What a progress display needs, passed to the ``progress`` callable after every step."""
+
+    t: float
+    stop_time: float
+    dt: float
+    step: int
+    steps_per_s: float
+    eta_s: float
+    wall_s: float
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Outcome of :meth:`CaseRun.run`."""
+
+    status: RunStatus
+    message: str
+    directory: Path
+    summary: dict[str, Any]
+    checkpoint: Path | None
+
+
+def resolve_checkpoint(path: str | Path) -> Path:
+    """A checkpoint file, or the newest checkpoint of a run directory (or of its checkpoints/)."""
+    p = Path(path)
+    if p.is_dir():
+        for d in (p / CHECKPOINT_DIR, p):
+            if any(d.glob(CHECKPOINT_GLOB)):
+                latest = CheckpointManager(d, keep=None).latest()
+                if latest is not None:
+                    return latest
+        raise GranflowInputError(f"--restart {p}: no {CHECKPOINT_GLOB} in this directory or its "
+                                 f"{CHECKPOINT_DIR}/")
+    return p
+
+
+class CaseRun:
+    """A case with its output in ``directory`` (see the module docstring).
+
+    Parameters
+    ----------
+    config : CaseConfig
+    directory : path-like
+        Output directory (created).
+    restart : path-like, optional
+        Checkpoint file or run directory to continue from.
+    progress : callable, optional
+        ``progress(Progress)`` after every accepted step.
+    overwrite : bool
+        Replace an existing output of a fresh run; without it an existing ``output.nc`` is an error
+        (use ``restart`` to continue it).
+    """
+
+    def __init__(self, config: CaseConfig, directory: str | Path, restart: str | Path | None = None,
+                 progress: Callable[[Progress], None] | None = None, overwrite: bool = False) -> None:
+        self.config = config
+        self.case = CASES.get(config.case.name)
+        self.directory = Path(directory)
+        self.output_path = self.directory / OUTPUT_FILE
+        if restart is None and self.output_path.exists() and not overwrite:
+            raise GranflowInputError(f"{self.output_path} exists; continue it with --restart "
+                                     f"{self.directory}, or replace it with --overwrite")
+        self.sim: Simulation = self.case.setup(config)
+        self.grid = self.sim.model.grid
+        self.phi_max = self.sim.model.material.phi_max
+        out = config.output
+        self.threshold = out.front_threshold if out.front_threshold is not None else self.grid.dz
+        self.rest_speed = (out.rest_speed if out.rest_speed is not None
+                           else REST_SPEED_FACTOR * config.numerics.eps * self.grid.Lz)
+        self.progress = progress
+        self.front_t: list[float] = []
+        self.front_x: list[float] = []
+        self.mass0 = dg.mass(self.grid, self.sim.state.phi)
+        self.t_rest: float | None = None
+        self.peak_speed = 0.0
+        self.wall_before = 0.0
+        self._last_out_t = -np.inf
+        self._last_ckpt_step = -1
+        self._session_t0 = (self.sim.state.t, time.perf_counter())
+        self.sim.add_callback(self._write_output, TimeInterval(out.interval), name="output")
+        self.sim.add_callback(self._monitor, IterationInterval(EVERY_STEP), name="monitor")
+        self.sim.add_callback(self._periodic_checkpoint, IterationInterval(out.checkpoint_interval),
+                              name="checkpoint")
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.checkpoints = CheckpointManager(self.directory / CHECKPOINT_DIR, keep=out.checkpoint_keep)
+        if restart is not None:
+            self._restore(resolve_checkpoint(restart))
+        else:
+            for old in self.checkpoints.steps():
+                self.checkpoints.path(old).unlink(missing_ok=True)
+        self._session_t0 = (self.sim.state.t, time.perf_counter())
+        self.writer = self._open_writer(resume=restart is not None and self.output_path.exists())
+
+    # --- output ---------------------------------------------------------------------------------
+    def _declarations(self) -> tuple[dict, dict, dict]:
+        g = self.grid
+        coords = {"x": (np.asarray(g.xc), {"units": "m", "long_name": "x of the cell centres",
+                                          "axis": "X"}),
+                  "z": (np.asarray(g.zc), {"units": "m", "long_name": "height z of the cell centres",
+                                          "axis": "Z", "positive": "up"})}
+        variables = {}
+        for name in self.config.output.fields:
+            units, long_name = FIELD_SPECS[name]
+            attrs = {"phi_max": self.phi_max} if name == "phi" else None
+            variables[name] = VariableSpec(("time", "x", "z"), units, long_name, attrs=attrs)
+        for name, (units, long_name) in SERIES_SPECS.items():
+            variables[name] = VariableSpec(("time",), units, long_name)
+        attrs = {"case": self.config.case.name, "config_effective": self.config.to_toml(),
+                 "overrides": " ".join(self.config.overrides), "phi_max": self.phi_max,
+                 "front_threshold_m": self.threshold, "closure": self.config.closure.name}
+        return coords, variables, attrs
+
+    def _open_writer(self, resume: bool) -> NetCDFWriter:
+        coords, variables, attrs = self._declarations()
+        kw = {"case_file": self.config.source_text, "title": f"granflow {self.config.case.name}"}
+        if not resume:
+            return NetCDFWriter(self.output_path, coords, variables, attrs, **kw)
+        t = self.sim.state.t
+        with netCDF4.Dataset(self.output_path) as ds:
+            times = np.asarray(ds["time"][:], dtype=float)
+        kept = times[times <= t]
+        self._last_out_t = float(kept.max()) if kept.size else -np.inf
+        return NetCDFWriter.resume(self.output_path, t, coords, variables, attrs, **kw)
+
+    def _fields(self) -> dict[str, np.ndarray]:
+        g, st = self.grid, self.sim.state
+        u, w = g.unpack_velocity(st.vel)
+        all_fields = {"phi": st.phi, "u": 0.5 * (u[1:, :] + u[:-1, :]), "w": 0.5 * (w[:, 1:] + w[:, :-1]),
+                      "p": st.p, "p_f": st.p_f,
+                      "S": self.sim.model.ops.strain_rate_norm(st.vel).reshape(g.cell_shape)}
+        return {k: all_fields[k] for k in self.config.output.fields}
+
+    def front(self) -> float:
+        """Front position of the current state [m] (nan if no column is above the threshold)."""
+        return dg.front_position(self.grid, self.sim.state.phi, self.phi_max, self.threshold)
+
+    def _write_output(self, sim: Simulation) -> None:
+        t = sim.state.t
+        if t <= self._last_out_t:  # already written (restart at an output time)
+            return
+        x_f = self.front()
+        self.writer.append(t, {**self._fields(), "kinetic_energy": np.float64(sim.budget.e_k),
+                               "x_front": np.float64(x_f)})
+        self._last_out_t = t
+        self.front_t.append(t)
+        self.front_x.append(x_f)
+
+    # --- monitor, checkpoints -------------------------------------------------------------------
+    def _speed(self) -> float:
+        st, m = self.sim.state, self.sim.model
+        faces = m.ops.cell_to_face @ st.phi.ravel() >= m.ambient.phi_c
+        return float(np.max(np.abs(st.vel[faces]), initial=0.0))
+
+    def _monitor(self, sim: Simulation) -> None:
+        speed = self._speed()
+        self.peak_speed = max(self.peak_speed, speed)
+        if speed > self.rest_speed:
+            self.t_rest = None
+        elif self.t_rest is None:
+            self.t_rest = sim.state.t
+        if self.progress is not None and sim.reports:
+            t0, w0 = self._session_t0
+            elapsed = time.perf_counter() - w0
+            n = len(sim.reports)
+            rate = (sim.state.t - t0) / elapsed if elapsed > 0 else 0.0
+            eta = (sim.stop_time - sim.state.t) / rate if rate > 0 else float("inf")
+            self.progress(Progress(t=sim.state.t, stop_time=sim.stop_time, dt=sim.reports[-1].dt,
+                                   step=sim.state.step, steps_per_s=n / elapsed if elapsed > 0 else 0.0,
+                                   eta_s=eta, wall_s=self.wall_s()))
+
+    def wall_s(self) -> float:
+        """Wall time of the run so far, over all restarts [s]."""
+        return self.wall_before + time.perf_counter() - self._session_t0[1]
+
+    def _periodic_checkpoint(self, sim: Simulation) -> None:
+        if sim.state.step > 0:
+            self.save_checkpoint()
+
+    def save_checkpoint(self) -> Path | None:
+        """Checkpoint of the current state (skipped if this step already has one)."""
+        step = self.sim.state.step
+        if step == self._last_ckpt_step:
+            return self.checkpoints.path(step)
+        arrays, scalars = self.sim.checkpoint_payload()
+        arrays.update({"run.front_t": np.asarray(self.front_t, dtype=float),
+                       "run.front_x": np.asarray(self.front_x, dtype=float)})
+        scalars.update({"run.t_rest": self.t_rest, "run.peak_speed": self.peak_speed,
+                        "run.mass0": self.mass0, "run.wall_s": self.wall_s(),
+                        "run.last_out_t": self._last_out_t})
+        g = self.grid
+        meta = {"case": self.config.case.name, "grid": [g.nx, g.nz, g.Lx, g.Lz],
+                "config_effective": self.config.to_toml(), "case_file": self.config.source_path}
+        path = self.checkpoints.save(step, arrays, scalars, meta)
+        self._last_ckpt_step = step
+        return path
+
+    def _restore(self, path: Path) -> None:
+        arrays, scalars, meta = load_checkpoint(path)
+        if meta.get("case") != self.config.case.name:
+            raise GranflowInputError(f"--restart {path}: checkpoint of case {meta.get('case')!r}, "
+                                     f"not {self.config.case.name!r}")
+        g = self.grid
+        if meta.get("grid") != [g.nx, g.nz, g.Lx, g.Lz]:
+            raise GranflowInputError(f"--restart {path}: checkpoint grid (nx, nz, Lx, Lz) = "
+                                     f"{meta.get('grid')} differs from the case's {[g.nx, g.nz, g.Lx, g.Lz]}")
+        try:
+            self.sim.restore_checkpoint(arrays, scalars)
+            self.front_t = [float(v) for v in arrays["run.front_t"]]
+            self.front_x = [float(v) for v in arrays["run.front_x"]]
+            self.t_rest = scalars["run.t_rest"]
+            self.peak_speed = float(scalars["run.peak_speed"])
+            self.mass0 = float(scalars["run.mass0"])
+            self.wall_before = float(scalars["run.wall_s"])
+            self._last_out_t = float(scalars["run.last_out_t"])
+        except (KeyError, GranflowInputError) as err:
+            raise GranflowInputError(f"--restart {path}: not a checkpoint of this case ({err})") from None
+        max_steps = self.config.time.max_steps
+        if max_steps is not None:
+            self.sim.max_steps = max(max_steps - self.sim.state.step, 0)
+        self._last_ckpt_step = self.sim.state.step
+        logger.info("restarted from %s at t = %r s, step %d", path, self.sim.state.t, self.sim.state.step)
+
+    # --- the run ---------------------------------------------------------------------------------
+    def run(self) -> RunResult:
+        """Run to the end; never raises for a step failure or an interruption (see RunStatus)."""
+        status, message = RunStatus.COMPLETED, ""
+        try:
+            self.sim.run()
+            if self.sim.stop_requested:
+                status, message = RunStatus.INTERRUPTED, self.sim.stop_reason
+        except StepFailure as err:
+            status, message = RunStatus.FAILED, str(err)
+        except KeyboardInterrupt:
+            status, message = RunStatus.INTERRUPTED, "interrupted (KeyboardInterrupt)"
+        except BaseException as err:
+            self._finish(RunStatus.ERROR, f"{type(err).__name__}: {err}")
+            raise
+        return self._finish(status, message)
+
+    def _finish(self, status: RunStatus, message: str) -> RunResult:
+        checkpoint = None
+        try:
+            if status is RunStatus.COMPLETED and self.sim.state.t > self._last_out_t:
+                self._write_output(self.sim)  # the final state, even if off the output times
+            checkpoint = self.save_checkpoint()
+        finally:
+            self.writer.close()
+            summary = self.summary(status, message, checkpoint)
+            write_json_atomic(self.directory / SUMMARY_FILE, summary)
+        return RunResult(status, message, self.directory, summary, checkpoint)
+
+    def summary(self, status: RunStatus, message: str = "", checkpoint: Path | None = None) -> dict[str, Any]:
+        """The ``summary.json`` content (NaN and inf become null)."""
+        sim, g, cfg = self.sim, self.grid, self.config
+        st, tot, b = sim.state, sim.totals, sim.budget
+        mass = dg.mass(g, st.phi)
+        x_final = self.front()
+        x_first = self.front_x[0] if self.front_x else float("nan")
+        h = dg.deposit_thickness(g, st.phi, self.phi_max)
+        closure = sim.model.closure
+        return {
+            "case": cfg.case.name, "status": status.value, "message": message,
+            "t_final": st.t, "stop_time": sim.stop_time, "steps": st.step,
+            "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
+            "runout_m": x_final - x_first,
+            "front_position": {"threshold_m": self.threshold, "t_s": list(self.front_t),
+                               "x_m": list(self.front_x), "final_m": x_final},
+            "final_height_at_wall": float(h[0]),
+            "t_rest": self.t_rest, "rest_speed": self.rest_speed, "peak_speed": self.peak_speed,
+            "mass_rel_error": (mass + tot.clipped_mass - tot.added_mass - self.mass0) / self.mass0,
+            "mass_change_rel": (mass - self.mass0) / self.mass0,
+            "clipped_mass": tot.clipped_mass / self.mass0,
+            "added_mass": tot.added_mass / self.mass0,
+            "phi_min": float(st.phi.min()), "phi_max": float(st.phi.max()),
+            "phi_max_before_clip": tot.max_phi_before_clip,
+            "phi_min_before_clip": tot.min_phi_before_clip,
+            "energy_residual_rel": b.relative_residual,
+            "energy": {"released": b.released, "dissipated": b.dissipated, "kinetic": b.e_k,
+                       "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
+            "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
+                       "max_cells_negative_Z": tot.max_negative_Z},
+            "closure": closure.describe(),
+            "resolution": {"nx": g.nx, "nz": g.nz, "dx_m": g.dx, "dz_m": g.dz},
+            "case_diagnostics": self.case.diagnostics(sim, cfg),
+            "files": {"output": OUTPUT_FILE,
+                      "checkpoint": str(checkpoint.relative_to(self.directory)) if checkpoint else None},
+            "units": UNITS,
+            "granflow_version": _version(), "git_revision": git_revision(),
+        }
+
+
+def _version() -> str:
+    from granflow import __version__
+
+    return __version__

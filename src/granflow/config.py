@@ -1,0 +1,495 @@
+"""Case files: the strict, typed configuration of a run (STYLE.md idiom 9).
+
+A case file is TOML with the sections ``[case]`` (``name``: the case registry key),
+``[material]`` (:class:`granflow.materials.Material`), ``[closure]`` (``name`` + the closure's
+parameters, checked by :func:`granflow.rheology.make_closure`), ``[equilibrium]`` (``law`` + its
+parameters), ``[grid]``, ``[walls]``, ``[gravity]``, ``[time]``, ``[numerics]`` (with
+``[numerics.picard]`` and ``[numerics.ambient]``), ``[gas]``, ``[output]`` and ``[setup]`` (the
+case's own options, validated by the case's model). Every option has a default
+(``granflow config show CASE``; docs/cases.md), so ``[case]\nname = "column_collapse"`` is a
+complete case file.
+
+Unknown keys, wrong types (no silent conversion of ``"0.1"`` or ``true`` to numbers), NaN or
+infinite numbers, out-of-range values, unknown registry names and inconsistent options (e.g.
+``setup.phi0 > material.phi_max``) are all reported together in ONE
+:class:`~granflow.errors.GranflowInputError` whose parts name the full key path and what was
+expected, before any computation.
+
+Examples
+--------
+>>> cfg = CaseConfig.from_dict({"case": {"name": "column_collapse"}, "grid": {"nx": 20, "nz": 8}})
+>>> cfg.grid.nx, cfg.closure.name, cfg.setup.H0
+(20, 'drucker_prager', 0.1)
+>>> CaseConfig.from_dict({"case": {"name": "column_collapse"}, "grid": {"nx": 0}})
+Traceback (most recent call last):
+...
+granflow.errors.GranflowInputError: grid.nx: Input should be greater than or equal to 2 (got 0)
+"""
+from __future__ import annotations
+
+import difflib
+import enum
+import functools
+import math
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    create_model,
+    model_validator,
+)
+
+from granflow.errors import GranflowInputError, UnknownNameError
+from granflow.grid import MIN_CELLS
+from granflow.materials import Material
+from granflow.model import (
+    DEFAULT_DELTA_P,
+    DEFAULT_EPS,
+    DEFAULT_PHI_TOLERANCE,
+    AmbientParams,
+    PicardParams,
+)
+from granflow.physics.transport import POSITIVITY_CFL
+
+MAX_CELLS = 4_000_000
+"""Largest grid ``nx * nz`` accepted (a guard against typos such as ``nx = 40000``)."""
+DEFAULT_GRAVITY = 9.81
+"""Magnitude of gravity [m s^-2]."""
+MAX_SLOPE_DEG = 90.0
+"""Slope angles must lie strictly within (-90, 90) degrees."""
+OUTPUT_FIELDS = ("phi", "u", "w", "p", "p_f", "S")
+"""Cell-centred fields that can be written to the NetCDF output."""
+WallCondition = Literal["no_slip", "free_slip"]
+GasLawName = Literal["none", "linear", "nonlinear"]
+KEY_SEP = "."
+MAX_SUGGESTIONS = 1
+"""Number of "did you mean" suggestions for an unknown key."""
+
+
+class Section(BaseModel):
+    """Base of every section: frozen, unknown keys forbidden, no type coercion, finite numbers."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", strict=True, allow_inf_nan=False,
+                              validate_default=True)
+
+
+class CaseSection(Section):
+    """``[case]``."""
+
+    name: str = Field(description="case registry key (granflow list cases) [-]")
+
+
+class MaterialSection(Material):
+    """``[material]``: :class:`granflow.materials.Material`, validated strictly."""
+
+    model_config = ConfigDict(strict=True, allow_inf_nan=False)
+
+
+class _OpenSection(BaseModel):
+    """A registry name plus free parameters, validated by the registry's own model."""
+
+    model_config = ConfigDict(frozen=True, extra="allow", strict=True, allow_inf_nan=False)
+
+    def parameters(self) -> dict[str, Any]:
+        """The parameters other than the registry key."""
+        return dict(self.model_extra or {})
+
+
+class ClosureSection(_OpenSection):
+    """``[closure]``: ``name`` and the closure's parameters (``granflow list closures``)."""
+
+    name: str = Field("drucker_prager", description="closure registry key (granflow list closures) [-]")
+
+
+class EquilibriumSection(_OpenSection):
+    """``[equilibrium]``: ``law`` and its parameters (``granflow list equilibria``)."""
+
+    law: str = Field("linear", description="equilibrium-law registry key (granflow list equilibria) [-]")
+
+
+class GridSection(Section):
+    """``[grid]``: the closed box [0, Lx] x [0, Lz] cut into nx x nz cells."""
+
+    nx: int = Field(40, ge=MIN_CELLS, description="number of cells along x [-]")
+    nz: int = Field(15, ge=MIN_CELLS, description="number of cells along z [-]")
+    Lx: float = Field(0.4, gt=0, description="box length [m]")
+    Lz: float = Field(0.15, gt=0, description="box height [m]")
+
+    @model_validator(mode="after")
+    def _size(self) -> GridSection:
+        if self.nx * self.nz > MAX_CELLS:
+            raise ValueError(f"nx * nz = {self.nx * self.nz} cells exceeds the limit of {MAX_CELLS} "
+                             "(granflow.config.MAX_CELLS); check nx and nz")
+        return self
+
+
+class WallsSection(Section):
+    """``[walls]``: tangential velocity condition of each wall (the normal velocity is zero)."""
+
+    west: WallCondition = Field("free_slip", description="wall x = 0 (symmetry plane when free_slip) [-]")
+    east: WallCondition = Field("free_slip", description="wall x = Lx [-]")
+    bottom: WallCondition = Field("no_slip", description="base z = 0 [-]")
+    top: WallCondition = Field("free_slip", description="lid z = Lz [-]")
+
+
+class GravitySection(Section):
+    """``[gravity]``: ``(g_x, g_z) = g (sin(slope), -cos(slope))``."""
+
+    g: float = Field(DEFAULT_GRAVITY, ge=0, description="magnitude of gravity [m s^-2]")
+    slope_deg: float = Field(0.0, gt=-MAX_SLOPE_DEG, lt=MAX_SLOPE_DEG,
+                             description="tilt of gravity; > 0 is a slope down towards +x [deg]")
+
+
+class TimeSection(Section):
+    """``[time]``."""
+
+    stop_time: float = Field(0.5, gt=0, description="final time [s]")
+    cfl: float = Field(0.3, gt=0, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
+    dt_max: float = Field(1.0e-3, gt=0, description="largest time step [s]")
+    max_retries: int = Field(6, ge=0, description="dt halvings allowed for one step [-]")
+    max_steps: int | None = Field(None, ge=1, description="stop after this many steps in total, "
+                                  "counted from t = 0 [-] (default: no limit)")
+
+
+class PicardSection(PicardParams):
+    """``[numerics.picard]``: :class:`granflow.model.PicardParams`."""
+
+    model_config = ConfigDict(strict=True, allow_inf_nan=False)
+
+
+class AmbientSection(AmbientParams):
+    """``[numerics.ambient]``: :class:`granflow.model.AmbientParams`."""
+
+    model_config = ConfigDict(strict=True, allow_inf_nan=False)
+
+
+class NumericsSection(Section):
+    """``[numerics]``: the options of :class:`granflow.model.Model`."""
+
+    eps: float = Field(DEFAULT_EPS, gt=0, description="regularisation strain rate [s^-1]")
+    delta_p: float = Field(DEFAULT_DELTA_P, gt=0, description="pressure offset of the sqrt(p) "
+                           "linearisation and of I at p -> 0 [Pa]")
+    advection: Literal["upwind", "muscl"] = Field("upwind", description="momentum advection scheme [-]")
+    interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
+    consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
+    phi_tolerance: float = Field(DEFAULT_PHI_TOLERANCE, gt=0, description="relative overshoot of "
+                                 "phi_max (before clipping) that fails a step [-]")
+    picard: PicardSection = Field(default_factory=PicardSection, description="Picard loop [-]")
+    ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
+
+
+class GasSection(Section):
+    """``[gas]``: the pore-gas model; anything but ``law = "none"`` needs a Model with gas support."""
+
+    law: GasLawName = Field("none", description='pore-gas law: "none" (dry), "linear" (eq. syst2b) '
+                            'or "nonlinear" (eq. pressure-diffusion-nonlinear) [-]')
+    U_inj: float = Field(0.0, ge=0, description="superficial gas velocity injected through the base [m s^-1]")
+    open_top: bool = Field(False, description="p_f = 0 on the top wall (else impermeable) [-]")
+
+
+class OutputSection(Section):
+    """``[output]``."""
+
+    directory: str | None = Field(None, min_length=1, description="output directory (default: "
+                                  "runs/<case-file name>; --out overrides) [-]")
+    interval: float = Field(0.05, gt=0, description="simulated time between NetCDF records [s]")
+    checkpoint_interval: int = Field(500, ge=1, description="accepted steps between checkpoints [-]")
+    checkpoint_keep: int = Field(2, ge=1, description="number of newest periodic checkpoints kept [-]")
+    fields: list[Literal[OUTPUT_FIELDS]] = Field(  # type: ignore[valid-type]
+        default_factory=lambda: list(OUTPUT_FIELDS), min_length=1,
+        description=f"fields written at cell centres, any of {list(OUTPUT_FIELDS)} [-]")
+    front_threshold: float | None = Field(None, gt=0, description="deposit thickness defining the "
+                                          "front (default: one cell height) [m]")
+    rest_speed: float | None = Field(None, gt=0, description="granular speed below which the flow "
+                                     "is at rest, for t_rest (default: 10 eps Lz) [m s^-1]")
+    log_interval: float = Field(10.0, gt=0, description="wall time between progress log lines "
+                                "when not on a terminal [s]")
+
+
+class EmptySetup(Section):
+    """``[setup]`` of a case without options."""
+
+
+class CaseConfig(Section):
+    """A validated case file. Build with :func:`load_case` or :meth:`from_dict`; the ``setup``
+    section has the type of the case's own model (``case.setup_model``)."""
+
+    case: CaseSection
+    material: MaterialSection = Field(default_factory=MaterialSection)
+    closure: ClosureSection = Field(default_factory=ClosureSection)
+    equilibrium: EquilibriumSection = Field(default_factory=EquilibriumSection)
+    grid: GridSection = Field(default_factory=GridSection)
+    walls: WallsSection = Field(default_factory=WallsSection)
+    gravity: GravitySection = Field(default_factory=GravitySection)
+    time: TimeSection = Field(default_factory=TimeSection)
+    numerics: NumericsSection = Field(default_factory=NumericsSection)
+    gas: GasSection = Field(default_factory=GasSection)
+    output: OutputSection = Field(default_factory=OutputSection)
+    setup: Section = Field(default_factory=EmptySetup)
+
+    _source_text: str = PrivateAttr(default="")
+    _source_path: str = PrivateAttr(default="")
+    _overrides: tuple[str, ...] = PrivateAttr(default=())
+    _closure: Any = PrivateAttr(default=None)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> CaseConfig:
+        """Validate a parsed case file; all problems are reported in one error.
+
+        Raises
+        ------
+        GranflowInputError
+            ``"<key.path>: <what was expected> (got <value>)"`` for each problem, ``"; "``-joined.
+        """
+        return _validate(dict(data))
+
+    # --- derived objects ------------------------------------------------------------------------
+    def make_closure(self):
+        """The closure of ``[closure]``, ``[material]`` and ``[equilibrium]`` (built once)."""
+        if self._closure is None:
+            from granflow.rheology import make_closure
+
+            self._closure = make_closure(self.closure.name, material=self.material.model_dump(),
+                                         equilibrium=self.equilibrium.law,
+                                         equilibrium_params=self.equilibrium.parameters(),
+                                         **self.closure.parameters())
+        return self._closure
+
+    @property
+    def gravity_vector(self) -> tuple[float, float]:
+        """``(g_x, g_z)`` [m s^-2]."""
+        th = math.radians(self.gravity.slope_deg)
+        return (self.gravity.g * math.sin(th), -self.gravity.g * math.cos(th))
+
+    @property
+    def source_text(self) -> str:
+        """Text of the case file as read (empty when built from a dict)."""
+        return self._source_text
+
+    @property
+    def source_path(self) -> str:
+        return self._source_path
+
+    @property
+    def overrides(self) -> tuple[str, ...]:
+        """The ``--set`` items applied on top of the file."""
+        return self._overrides
+
+    def to_toml(self) -> str:
+        """The effective configuration (defaults filled in) as TOML text."""
+        from granflow.cases.options import dumps_toml
+
+        return dumps_toml(self.model_dump(mode="json", exclude_none=True))
+
+
+# --------------------------------------------------------------------------------------------
+# Loading and validation (TOML reading and --set overrides: granflow.cases.options)
+# --------------------------------------------------------------------------------------------
+def load_case(path: str | Path, overrides: list[str] | None = None) -> CaseConfig:
+    """Read, override and validate a case file.
+
+    Parameters
+    ----------
+    path : path-like
+        TOML case file.
+    overrides : list of str, optional
+        ``"section.key=value"`` items, values parsed as TOML (``grid.nx=80``,
+        ``closure.name="mu_i"``; a bare word is taken as a string).
+
+    Returns
+    -------
+    CaseConfig
+
+    Raises
+    ------
+    GranflowInputError
+        Unreadable file, TOML syntax error (with line and column), or invalid content (every
+        problem, each naming its key path, in one message prefixed with the file name).
+    """
+    from granflow.cases.options import apply_overrides, read_toml
+
+    text, data = read_toml(path)
+    data = apply_overrides(data, list(overrides or []))
+    try:
+        cfg = _validate(data)
+    except GranflowInputError as err:
+        raise GranflowInputError(f"{path}: {err}") from None
+    cfg._source_text = text
+    cfg._source_path = str(path)
+    cfg._overrides = tuple(overrides or ())
+    return cfg
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _key(part: Any) -> str:
+    """A key path component, quoted if it is not a plain identifier (one line, printable)."""
+    s = str(part)
+    return s if s.replace("_", "").isalnum() and s.isascii() else repr(s)
+
+
+def _path(loc) -> str:
+    return KEY_SEP.join(_key(p) for p in loc) or "(case file)"
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+@functools.cache
+def _config_model(case_name: str | None) -> type[CaseConfig]:
+    """CaseConfig whose ``setup`` is the case's own model (plain dict for an unknown case)."""
+    if case_name is None:
+        return create_model("CaseConfigAnyCase", __base__=CaseConfig, setup=(dict[str, Any], {}))
+    from granflow.cases import CASES
+
+    model = CASES.get(case_name).setup_model
+    return create_model(f"CaseConfig_{case_name}", __base__=CaseConfig,
+                        setup=(model, Field(default_factory=model)))
+
+
+def _fields_at(model: type[BaseModel], loc) -> list[str]:
+    """Allowed keys of the section at ``loc`` (for "unknown key" messages)."""
+    for part in loc:
+        field = model.model_fields.get(str(part))
+        ann = getattr(field, "annotation", None)
+        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
+            return []
+        model = ann
+    return list(model.model_fields)
+
+
+def _pydantic_errors(err: ValidationError, model: type[BaseModel]) -> list[str]:
+    out = []
+    for e in err.errors():
+        loc = e["loc"]
+        if e["type"] == "extra_forbidden":
+            allowed = _fields_at(model, loc[:-1])
+            near = difflib.get_close_matches(str(loc[-1]), allowed, n=MAX_SUGGESTIONS)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            out.append(f"{_path(loc)}: unknown key (expected one of: {', '.join(allowed)}){hint}")
+            continue
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "missing":
+            out.append(f"{_path(loc)}: missing")
+        elif isinstance(e.get("input"), dict):  # a whole-section validator: do not echo the section
+            out.append(f"{_path(loc)}: {msg}")
+        else:
+            out.append(f"{_path(loc)}: {msg} (got {_show(e.get('input'))})")
+    return out
+
+
+def _nonfinite(data: Any, loc: tuple) -> list[str]:
+    if isinstance(data, float) and not math.isfinite(data):
+        return [f"{_path(loc)}: Input should be a finite number (got {data!r})"]
+    if isinstance(data, dict):
+        return [m for k, v in data.items() for m in _nonfinite(v, (*loc, k))]
+    if isinstance(data, list):
+        return [m for i, v in enumerate(data) for m in _nonfinite(v, (*loc, i))]
+    return []
+
+
+def _accepts(annotation: Any, kind: type) -> bool:
+    """Whether a closure-parameter annotation accepts values of ``kind`` (str or bool)."""
+    if annotation is kind or annotation is Any:
+        return True
+    if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
+        return any(isinstance(m.value, kind) for m in annotation)
+    origin = typing.get_origin(annotation)
+    if origin is Literal:
+        return any(isinstance(a, kind) for a in typing.get_args(annotation))
+    if origin in (typing.Union, types.UnionType):
+        return any(_accepts(a, kind) for a in typing.get_args(annotation))
+    return False
+
+
+def _registry_errors(data: Any, material: Material) -> list[str]:
+    """Build the closure (or check the equilibrium law) of the raw section; errors named."""
+    from granflow.equilibrium import EQUILIBRIUM_LAWS
+    from granflow.rheology import CLOSURES, make_closure
+
+    closure_raw = data.get("closure", {}) if isinstance(data.get("closure", {}), dict) else {}
+    eq_raw = data.get("equilibrium", {}) if isinstance(data.get("equilibrium", {}), dict) else {}
+    name = closure_raw.get("name", ClosureSection.model_fields["name"].default)
+    law = eq_raw.get("law", EquilibriumSection.model_fields["law"].default)
+    if not isinstance(name, str) or not isinstance(law, str):
+        return []  # reported as a type error by pydantic
+    params = {k: v for k, v in closure_raw.items() if k != "name"}
+    eq_params = {k: v for k, v in eq_raw.items() if k != "law"}
+    errors = []
+    if name not in CLOSURES:
+        near = difflib.get_close_matches(name, CLOSURES.names(), n=MAX_SUGGESTIONS)
+        errors.append(f"closure.name: unknown closure {name!r} (expected one of: "
+                      f"{', '.join(CLOSURES.names())})" + (f"; did you mean {near[0]!r}?" if near else ""))
+    if law not in EQUILIBRIUM_LAWS:
+        errors.append(f"equilibrium.law: unknown equilibrium law {law!r} (expected one of: "
+                      f"{', '.join(EQUILIBRIUM_LAWS.names())})")
+    if errors:
+        return errors
+    cls = CLOSURES.get(name)
+    for key, value in params.items():
+        field = cls.model_fields.get(key)
+        if key in ("material", "equilibrium"):
+            errors.append(f"closure.{_key(key)}: not a closure parameter; use the [{key}] section")
+        elif field is not None and isinstance(value, (str, bool)) and not _accepts(field.annotation, type(value)):
+            errors.append(f"closure.{_key(key)}: Input should be a number (got {_show(value)})")
+    if errors:
+        return errors
+    try:
+        make_closure(name, material=material, equilibrium=law, equilibrium_params=eq_params, **params)
+    except UnknownNameError as err:  # pragma: no cover - names checked above
+        errors.append(str(err))
+    except GranflowInputError as err:
+        allowed = {"closure": (f"closure {name!r}", [k for k in cls.model_fields
+                                                     if k not in ("material", "equilibrium")]),
+                   "equilibrium": (f"equilibrium law {law!r}", [k for k in EQUILIBRIUM_LAWS.get(law).model_fields
+                                                               if k != "phi_max"])}
+        for part in _one_line(str(err)).split("; "):
+            head = part.split(KEY_SEP, 1)[0]
+            if head in allowed and part.endswith("unknown parameter"):
+                what, keys = allowed[head]
+                part += f" of {what} (expected one of: {', '.join(keys)})"
+            errors.append(part if head in allowed else f"closure: {part}")
+    return errors
+
+
+def _validate(data: dict[str, Any]) -> CaseConfig:
+    from granflow.cases import CASES
+
+    errors: list[str] = []
+    case_raw = data.get("case")
+    case_name = case_raw.get("name") if isinstance(case_raw, dict) else None
+    if isinstance(case_name, str) and case_name not in CASES:
+        near = difflib.get_close_matches(case_name, CASES.names(), n=MAX_SUGGESTIONS)
+        errors.append(f"case.name: unknown case {case_name!r} (expected one of: {', '.join(CASES.names())})"
+                      + (f"; did you mean {near[0]!r}?" if near else ""))
+    model = _config_model(case_name if isinstance(case_name, str) and case_name in CASES else None)
+    errors += _nonfinite({k: data.get(k) for k in ("closure", "equilibrium") if k in data}, ())
+    cfg = None
+    try:
+        cfg = model.model_validate(data)
+    except ValidationError as err:
+        errors += _pydantic_errors(err, model)
+    if not any(e.startswith(("closure", "equilibrium")) for e in errors):
+        try:
+            material = MaterialSection.model_validate(data.get("material", {}))
+        except ValidationError:
+            material = Material()
+        errors += _registry_errors(data, material)
+    if errors:
+        raise GranflowInputError("; ".join(dict.fromkeys(errors)))
+    errors = [f"{path}: {msg}" for path, msg in CASES.get(cfg.case.name).check(cfg)]
+    if errors:
+        raise GranflowInputError("; ".join(errors))
+    return cfg
