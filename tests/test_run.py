@@ -81,6 +81,14 @@ def test_run_writes_a_self_describing_netcdf(tiny_run):
         assert np.all(ds["phi"].values <= PHI_MAX) and np.all(ds["phi"].values >= 0.0)
 
 
+def test_run_writes_figures(tiny_run):
+    _, out = tiny_run
+    s = json.loads((out / "summary.json").read_text())
+    assert s["figures"] == {"files": ["snapshots.png", "front.png"]}
+    for name in s["figures"]["files"]:
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
     _, out = tiny_run
     s = json.loads((out / "summary.json").read_text())

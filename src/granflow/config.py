@@ -212,6 +212,8 @@ class OutputSection(Section):
                                      "is at rest, for t_rest (default: 10 eps Lz) [m s^-1]")
     log_interval: float = Field(10.0, gt=0, description="wall time between progress log lines "
                                 "when not on a terminal [s]")
+    figures: bool = Field(True, description="write snapshot and front-position figures (PNG) at the "
+                          "end of the run [-]")
 
 
 class EmptySetup(Section):

@@ -105,3 +105,64 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path)
+
+
+def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
+    """Figures of a ``granflow run`` output file: ``snapshots.png`` (phi, and p_f when non-zero,
+    at the first, middle and last records, with the granular speed) and ``front.png`` (front
+    position and kinetic energy against time)."""
+    import xarray as xr
+
+    plt = _pyplot()
+    outdir = Path(outdir)
+    with xr.open_dataset(nc_path) as ds:
+        ds = ds.load()
+    n = ds.sizes["time"]
+    if n == 0:
+        return []
+    picks = sorted({0, n // 2, n - 1})
+    has_pf = "p_f" in ds and float(abs(ds["p_f"]).max()) > 0
+    rows = 2 if has_pf else 1
+    x, z = ds["x"].values, ds["z"].values
+    fig, axes = plt.subplots(rows, len(picks), figsize=(4.6 * len(picks), 2.4 * rows + 0.6),
+                             squeeze=False, constrained_layout=True)
+    for k, i in enumerate(picks):
+        snap = ds.isel(time=i)
+        ax = axes[0, k]
+        m = ax.pcolormesh(x, z, snap["phi"].values.T, vmin=0.0, vmax=float(ds.attrs.get("phi_max", 0.6)),
+                          cmap="YlOrBr", shading="auto")
+        if "u" in snap and "w" in snap:
+            speed = np.hypot(snap["u"].values, snap["w"].values).T
+            if speed.max() > 0:
+                ax.contour(x, z, speed, levels=4, colors="k", linewidths=0.5)
+        ax.set_aspect("equal")
+        ax.set_title(f"phi, t = {float(snap['time']):.3g} s (contours: speed)", fontsize="small")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("z [m]")
+        fig.colorbar(m, ax=ax, shrink=0.8)
+        if has_pf:
+            ax = axes[1, k]
+            m = ax.pcolormesh(x, z, snap["p_f"].values.T, cmap="viridis", shading="auto")
+            ax.set_aspect("equal")
+            ax.set_title(f"p_f [Pa], t = {float(snap['time']):.3g} s", fontsize="small")
+            ax.set_xlabel("x [m]")
+            fig.colorbar(m, ax=ax, shrink=0.8)
+    snap_path = outdir / "snapshots.png"
+    fig.savefig(snap_path, dpi=100)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    t = ds["time"].values
+    if "x_front" in ds:
+        ax.plot(t, ds["x_front"].values, "k-", label="front x_f")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("front position [m]")
+    if "kinetic_energy" in ds:
+        ax2 = ax.twinx()
+        ax2.plot(t, ds["kinetic_energy"].values, "tab:red", label="kinetic energy")
+        ax2.set_ylabel("kinetic energy [J/m]", color="tab:red")
+    ax.set_title(f"{ds.attrs.get('case', '')} ({ds.attrs.get('closure', '')})", fontsize="small")
+    front_path = outdir / "front.png"
+    fig.savefig(front_path, dpi=100)
+    plt.close(fig)
+    return [snap_path, front_path]

@@ -341,8 +341,20 @@ class CaseRun:
         finally:
             self.writer.close()
             summary = self.summary(status, message, checkpoint)
+            if self.config.output.figures:
+                summary["figures"] = self._figures()
             write_json_atomic(self.directory / SUMMARY_FILE, summary)
         return RunResult(status, message, self.directory, summary, checkpoint)
+
+    def _figures(self) -> dict[str, Any]:
+        """Write the run figures; a plotting problem is recorded, never fatal to the run."""
+        try:
+            from granflow import plotting
+
+            paths = plotting.run_figures(self.output_path, self.directory)
+            return {"files": [p.name for p in paths]}
+        except Exception as err:  # noqa: BLE001 - figures must not lose a finished run
+            return {"error": f"{type(err).__name__}: {err}"}
 
     def summary(self, status: RunStatus, message: str = "", checkpoint: Path | None = None) -> dict[str, Any]:
         """The ``summary.json`` content (NaN and inf become null)."""
