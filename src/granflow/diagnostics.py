@@ -21,6 +21,21 @@ which the budget also accumulates:
 * ``sum 1/2 (rho_f^{n+1} - rho_f^n) |u^{n+1}|^2 dV`` (inertia carried by the phi transport);
 * ``sum [E_p^{n+1} - E_p^n + dt dV f_g . u^{n+1}]`` (gravity/transport mismatch: centred phi_f in
   the gravity force versus MUSCL fluxes in the transport; includes the clipping).
+
+Fluidised model (MODEL.md §5, paper Theorem th1): the budget adds the gas energy
+``E_1 = sum (1 - phi) e(p_f) dV``, ``e(p) = (p_atm + p) ln(1 + p/p_atm) - p`` (LOG, paper eq. H(p)
++ p_atm), the Darcy dissipation (pairing of :mod:`granflow.physics.coupling`: weighted for the
+LINEAR law, unweighted for NONLINEAR) and the injected power, so that
+
+    err = [E_k + E_p + E_1](t) - [E_k + E_p + E_1](0) + int (D_y + D_d + D_darcy - P_inj) dt.
+
+The pressure work ``W_f = dV sum p_f Div u`` enters the mechanical budget (``+W_f`` from
+``-Grad p_f``) and the gas budget (``-W_f`` from ``p_atm Div u``) with opposite signs:
+``err = err_mech + err_gas + int (W_f^mom - W_f^gas) dt``, where ``err_mech`` is the sum of the four
+terms above and ``err_gas`` the sum of the four gas terms of
+:class:`granflow.physics.coupling.GasPowers` (backward Euler, cells turned ambient,
+transport/compression, diffusion); the last integral is round-off (``Grad = -Div^T``) and is kept
+in :attr:`EnergyBudget.numerical` as ``pressure_work_mismatch`` so that the terms sum to ``err``.
 """
 from __future__ import annotations
 
@@ -30,6 +45,7 @@ import numpy as np
 
 from granflow.grid import Grid
 from granflow.physics import momentum as mom
+from granflow.physics.pore_pressure import GasEnergy, GasLaw, darcy_dissipation, gas_energy
 
 HALF = 0.5
 
@@ -65,6 +81,29 @@ def dissipation_rates(model, state) -> tuple[float, float]:
     return d_y, d_d
 
 
+def gas_energy_of(model, state) -> float:
+    """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry."""
+    if model.gas is None:
+        return 0.0
+    return gas_energy(model.grid, state.phi, state.p_f, model.material, GasEnergy.LOG)
+
+
+def darcy_dissipation_of(model, state) -> float:
+    """Darcy dissipation ``sum w_f kappa_f |Grad p_f|^2 dV`` [W m^-1] of ``state`` (kappa at the
+    state's phi; pairing of :mod:`granflow.physics.coupling`); 0 if dry."""
+    if model.gas is None:
+        return 0.0
+    return darcy_dissipation(model.grid, model.ops, state.phi, state.p_f, model.material,
+                             open_top=model.gas_coupling.open_top, weighted=model.gas is GasLaw.LINEAR)
+
+
+def basal_pressure(grid: Grid, field, x: float) -> float:
+    """Value of a cell field (e.g. ``state.p_f`` [Pa]) in the bottom cell of the column containing
+    ``x`` [m]."""
+    i = int(np.clip(np.searchsorted(grid.xf, x, side="right") - 1, 0, grid.nx - 1))
+    return float(np.asarray(field).reshape(grid.cell_shape)[i, 0])
+
+
 def deposit_thickness(grid: Grid, phi, phi_max: float) -> np.ndarray:
     """``h(x) = sum_z phi dz / phi_max`` per column [m], shape (nx,)."""
     return np.sum(phi, axis=1) * grid.dz / phi_max
@@ -96,15 +135,31 @@ class EnergyBudget:
     """``int (D_y + D_d) dt`` [J m^-1]."""
     dissipated_yield: float = 0.0
     dissipated_dilatancy: float = 0.0
-    numerical: dict = field(default_factory=lambda: dict(backward_euler=0.0, advection=0.0,
-                                                         inertia_transport=0.0, gravity_transport=0.0))
-    """The four numerical contributions to ``err`` [J m^-1]; they sum to :attr:`residual`."""
+    numerical: dict = field(default_factory=lambda: dict(
+        backward_euler=0.0, advection=0.0, inertia_transport=0.0, gravity_transport=0.0,
+        gas_backward_euler=0.0, gas_ambient=0.0, gas_transport=0.0, gas_diffusion=0.0,
+        pressure_work_mismatch=0.0))
+    """The numerical contributions to ``err`` [J m^-1] (four mechanical, four gas, and the
+    pressure-work round-off); they sum to :attr:`residual`."""
+    e_10: float = 0.0
+    e_1: float = 0.0
+    """Gas energy at the start and now [J m^-1]."""
+    dissipated_darcy: float = 0.0
+    """``int D_darcy dt`` [J m^-1]."""
+    injected: float = 0.0
+    """``int P_inj dt`` [J m^-1]."""
+    pressure_work_momentum: float = 0.0
+    """``int W_f dt`` from the momentum rows, ``-dV u . Grad p_f`` [J m^-1]."""
+    pressure_work_gas: float = 0.0
+    """``int W_f dt`` from the gas rows, ``dV sum p_f Div u`` [J m^-1]."""
 
     @classmethod
     def start(cls, model, state) -> EnergyBudget:
         rho_f = mom.face_density(model.ops, state.phi, model.material.rho_s, model.ambient.rho_a)
         e_k, e_p = kinetic_energy(model, state), potential_energy(model, state)
-        return cls(model=model, e_k0=e_k, e_p0=e_p, e_k=e_k, e_p=e_p, rho_f=rho_f, t=state.t)
+        e_1 = gas_energy_of(model, state)
+        return cls(model=model, e_k0=e_k, e_p0=e_p, e_k=e_k, e_p=e_p, rho_f=rho_f, t=state.t,
+                   e_10=e_1, e_1=e_1)
 
     def record(self, report, state) -> None:
         """Account for one accepted step (``report`` from :meth:`Model.advance`)."""
@@ -118,7 +173,19 @@ class EnergyBudget:
         self.numerical["gravity_transport"] += e_p - self.e_p + dt * report.gravity_power
         self.dissipated_yield += dt * report.dissipation_yield
         self.dissipated_dilatancy += dt * report.dissipation_dilatancy
-        self.dissipated = self.dissipated_yield + self.dissipated_dilatancy
+        gas = getattr(report, "gas", None)
+        if gas is not None:
+            self.numerical["gas_backward_euler"] += dt * gas.backward_euler
+            self.numerical["gas_ambient"] += dt * gas.ambient
+            self.numerical["gas_transport"] += dt * gas.transport
+            self.numerical["gas_diffusion"] += dt * gas.diffusion
+            self.numerical["pressure_work_mismatch"] += dt * (gas.work_momentum - gas.work)
+            self.dissipated_darcy += dt * gas.darcy
+            self.injected += dt * gas.injection
+            self.pressure_work_momentum += dt * gas.work_momentum
+            self.pressure_work_gas += dt * gas.work
+            self.e_1 = gas_energy_of(m, state)
+        self.dissipated = self.dissipated_yield + self.dissipated_dilatancy + self.dissipated_darcy
         self.rho_f = rho_new
         self.e_p = e_p
         self.e_k = HALF * dV * float(rho_new @ (state.vel ** 2))
@@ -130,9 +197,29 @@ class EnergyBudget:
         return self.e_p0 - self.e_p
 
     @property
+    def released_gas(self) -> float:
+        """Released gas energy ``E_1(0) - E_1(t)`` [J m^-1]."""
+        return self.e_10 - self.e_1
+
+    @property
     def residual(self) -> float:
-        """``err = E_k + E_p - (E_k + E_p)(0) + int D dt`` [J m^-1] (< 0: numerical dissipation)."""
-        return self.e_k + self.e_p - self.e_k0 - self.e_p0 + self.dissipated
+        """``err = [E_k + E_p + E_1](t) - [E_k + E_p + E_1](0) + int (D - P_inj) dt`` [J m^-1]
+        (< 0: numerical dissipation; ``E_1 = D_darcy = P_inj = 0`` for the dry model)."""
+        return (self.e_k + self.e_p + self.e_1 - self.e_k0 - self.e_p0 - self.e_10
+                + self.dissipated - self.injected)
+
+    @property
+    def residual_mechanical(self) -> float:
+        """``E_k + E_p - (E_k + E_p)(0) + int (D_y + D_d - W_f^mom) dt`` [J m^-1]: the sum of the
+        four mechanical numerical terms."""
+        return (self.e_k + self.e_p - self.e_k0 - self.e_p0 + self.dissipated_yield
+                + self.dissipated_dilatancy - self.pressure_work_momentum)
+
+    @property
+    def residual_gas(self) -> float:
+        """``E_1 - E_1(0) + int (D_darcy + W_f^gas - P_inj) dt`` [J m^-1]: the sum of the four gas
+        numerical terms."""
+        return self.e_1 - self.e_10 + self.dissipated_darcy + self.pressure_work_gas - self.injected
 
     @property
     def relative_residual(self) -> float:

@@ -1,5 +1,6 @@
-"""The dry model (p_f = 0): one semi-implicit time step of paper eqs syst1b, syst3b, syst4b on the
-MAC grid, for any closure of the registry (NUMERICS.md §0, §3.1 "v1").
+"""The model: one semi-implicit time step of paper eqs syst1b-syst4b on the MAC grid, for any
+closure of the registry (NUMERICS.md §0, §3.1 "v1"); dry (``gas=None``, p_f = 0, eq. syst2b
+absent) or fluidised (``gas`` a :class:`~granflow.physics.pore_pressure.GasLaw`).
 
 Step n -> n+1 (:meth:`Model.advance`):
 
@@ -9,9 +10,13 @@ Step n -> n+1 (:meth:`Model.advance`):
    ``phi_f`` is the face fraction of the mass flux of a transport step with ``u^n``
    (:func:`granflow.physics.transport.flux_face_fraction`), so that the gravity work matches the
    potential-energy change of the transport (the centred ``phi_f`` of the prototype creates
-   energy at the smeared free surface and feeds a never-ending surface film);
+   energy at the smeared free surface and feeds a never-ending surface film); on slow faces the
+   blend of that weight is a drag, treated implicitly (:meth:`Model.gravity_split`);
 2. Picard loop (at most ``picard.max_sweeps`` sweeps) on the monolithic (u, p) saddle-point
-   system, with coefficients lagged at the iterate (u_k, p_k); the closure is evaluated at
+   system -- (u, p, p_f) when fluidised: the gas rows of :mod:`granflow.physics.coupling` on the
+   dense cells (free or active; ``p_f = 0`` in the ambient) border it, and the momentum rows get
+   ``-Grad p_f`` (NUMERICS.md §3.1, §3.3) -- with coefficients lagged at the iterate (u_k, p_k)
+   (the gas block depends on t^n fields only); the closure is evaluated at
    ``I_e = I(sqrt(|S_k|^2 + eps^2), p_e)``, ``p_e = p_k + delta_p`` (finite, > 0):
 
    * yield viscosity ``eta = max(Z, 0) p_k / (2 sqrt(|S_k|^2 + eps^2)) + eta_visc/2 + eta_a``
@@ -42,9 +47,9 @@ evaluate the closure at the local packing ``phi_loc`` = max of phi over the ``(2
 neighbourhood (the partial-cell compaction pump fix of NUMERICS.md §7.1). The closure is always
 evaluated at phi clipped to ``[PHI_FLOOR, phi_max]``. Nothing here is closure-specific.
 
-A pore-pressure block (paper eq. syst2b) will be a third block row/column of the same system
-(:meth:`granflow.physics.momentum.SaddleAssembler.bordered`, NUMERICS.md §3.1);
-:meth:`Model.advance` keeps ``state.p_f`` untouched (zero).
+The dry model keeps ``state.p_f`` untouched (zero). The fluidised model stores ``p_f^{n+1}``
+(zero in the ambient of t^n) and reports the gas energy terms
+(:class:`granflow.physics.coupling.GasPowers`) in :attr:`StepReport.gas`.
 """
 from __future__ import annotations
 
@@ -63,7 +68,9 @@ from granflow.grid import Grid, VelocityBCs
 from granflow.operators import Operators
 from granflow.params import Params
 from granflow.physics import momentum as mom
+from granflow.physics.coupling import GasCoupling, GasPowers
 from granflow.physics.dilatancy import ap_factor
+from granflow.physics.pore_pressure import GasLaw
 from granflow.physics.transport import (POSITIVITY_CFL, advect, cfl_number, clip_to_bounds,
                                        flux_face_fraction)
 from granflow.rheology.base import Closure
@@ -163,6 +170,8 @@ class StepReport:
     """``dV sum f_g . u^{n+1}``."""
     timings: dict = field(default_factory=dict)
     """Wall time per phase [s]: 'assembly', 'solve', 'transport'."""
+    gas: GasPowers | None = None
+    """Gas energy terms of the step (None for the dry model)."""
 
     @property
     def failed(self) -> bool:
@@ -210,9 +219,19 @@ class Model:
         gravity) instead of the centred mean. Default True.
     gravity_blend_velocity : float, optional
         Faces slower than this keep (a blend towards) the centred weight [m s^-1]; default
-        ``eps * Lz``, the creep velocity scale.
+        ``eps * Lz``, the creep velocity scale. The blend is implicit where it damps
+        (:meth:`gravity_split`).
     advection : Advection or str
         Momentum advection scheme, ``"upwind"`` (default, v1) or ``"muscl"``.
+    gas : GasLaw or str, optional
+        Pore-gas law (paper eq. syst2b ``"linear"`` or eq. pressure-diffusion-nonlinear
+        ``"nonlinear"``); None (default) is the dry model.
+    U_inj : float or array_like (nx,)
+        Superficial gas velocity [m s^-1] injected through the porous base (Neumann
+        ``-kappa dp_f/dz = U_inj``); default 0 (impermeable base). Needs ``gas``.
+    open_top : bool
+        ``p_f = 0`` on the top wall face (the velocity top stays closed). Default False
+        (impermeable top; the ambient cells carry ``p_f = 0`` in any case). Needs ``gas``.
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -222,7 +241,8 @@ class Model:
                  interface_packing: bool = True,
                  phi_tolerance: float = DEFAULT_PHI_TOLERANCE, consistent_gravity: bool = True,
                  gravity_blend_velocity: float | None = None,
-                 advection: mom.Advection | str = mom.Advection.UPWIND) -> None:
+                 advection: mom.Advection | str = mom.Advection.UPWIND,
+                 gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -258,6 +278,14 @@ class Model:
                                        else float(gravity_blend_velocity))
         if not self.gravity_blend_velocity > 0:
             raise GranflowInputError("Model: gravity_blend_velocity must be > 0")
+        self.gas = None
+        self.gas_coupling: GasCoupling | None = None
+        if gas is None:
+            if open_top or np.any(np.asarray(U_inj, dtype=float) != 0.0):
+                raise GranflowInputError("Model: U_inj and open_top need a gas law (gas=...)")
+        else:
+            self.gas_coupling = GasCoupling(grid, self.ops, self.material, gas, open_top, U_inj)
+            self.gas = self.gas_coupling.gas
 
     # --- fields -------------------------------------------------------------------------------
     def dense(self, phi) -> np.ndarray:
@@ -286,17 +314,63 @@ class Model:
         p = np.cumsum(face[:, ::-1], axis=1)[:, ::-1]
         return np.where(phi >= self.ambient.phi_c, p, 0.0)
 
-    def initial_state(self, phi) -> State:
-        """State at rest with phi and the :meth:`lithostatic_pressure` as first Picard iterate."""
-        return State.at_rest(self.grid, phi, p=self.lithostatic_pressure(phi))
+    def initial_state(self, phi, p_f=0.0) -> State:
+        """State at rest with ``phi``, pore pressure ``p_f`` [Pa] (zeroed in the ambient) and
+        ``p = max(lithostatic - p_f, 0)`` as first Picard iterate (the effective pressure
+        ``p + p_f`` carries the weight). ``p_f = b * model.lithostatic_pressure(phi)`` is a bed
+        fluidised to the degree ``b``. A dry model accepts only ``p_f = 0``."""
+        phi = np.asarray(phi, dtype=float)
+        try:
+            p_f = np.broadcast_to(np.asarray(p_f, dtype=float), self.grid.cell_shape)
+        except ValueError:
+            raise GranflowInputError(f"Model.initial_state: p_f must be a scalar or of shape "
+                                     f"{self.grid.cell_shape}") from None
+        if self.gas is None and np.any(p_f != 0.0):
+            raise GranflowInputError("Model.initial_state: p_f != 0 needs a gas law (gas=...)")
+        p_f = np.where(self.dense(phi).reshape(self.grid.cell_shape), p_f, 0.0)
+        p = np.maximum(self.lithostatic_pressure(phi) - p_f, 0.0)
+        return State.at_rest(self.grid, phi, p=p, p_f=p_f)
 
     def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
         """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
         face fraction of the mass flux of a step with velocity ``vel``
-        (:func:`granflow.physics.transport.flux_face_fraction`)."""
+        (:func:`granflow.physics.transport.flux_face_fraction`), evaluated at ``vel``."""
         phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity)
                     if self.consistent_gravity else None)
         return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
+
+    def gravity_split(self, phi, vel, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Gravity force of the step as ``f_0 - drag * u^{n+1}`` [N m^-3], ``drag >= 0``
+        [kg m^-3 s^-1].
+
+        The energy-consistent weight (:meth:`gravity_force`) on a face slower than the blend
+        velocity ``u_b`` is linear in the face velocity, ``phi_f = c + s (w_up - c) u/u_b``
+        (``c`` centred, ``w_up`` the upwind flux fraction for the direction ``s`` of ``u^n``). Where
+        ``-g s (w_up - c) > 0`` (e.g. a bed surface: lighter downstream) this is a drag of rate
+        ``~|g|/u_b`` (1.3e4 s^-1 for the default ``u_b = eps Lz`` with Lz = 0.15 m). Explicit, it is stable only for
+        ``|g| dt/u_b < 2``; the yield viscosity hides that in a dense pile, but where it vanishes
+        (``p -> 0``, a fluidised bed) a surface at rest oscillates with growing amplitude.
+        So that part is implicit (``drag`` joins the mass matrix); the rest (saturated
+        faces ``|u^n| >= u_b``, anti-damping faces, or ``consistent_gravity=False``) is explicit.
+        """
+        g, ops = self.grid, self.ops
+        rho_s = self.material.rho_s
+        phi = np.asarray(phi, dtype=float).reshape(g.cell_shape)
+        vel = np.asarray(vel, dtype=float)
+        gvec = np.empty(g.n_unknowns)
+        gvec[g.u_slice], gvec[g.w_slice] = self.gravity
+        centred = ops.cell_to_face @ phi.ravel()
+        if not self.consistent_gravity:
+            return rho_s * gvec * centred, np.zeros(g.n_unknowns)
+        out = advect(g, phi, vel, dt)
+        flux = g.pack_velocity(out.flux_x, out.flux_z)
+        moving = vel != 0.0
+        upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
+        u_b = self.gravity_blend_velocity
+        phi_f = centred + (upwind - centred) * np.minimum(1.0, np.abs(vel) / u_b)
+        drag = -rho_s * gvec * (upwind - centred) * np.sign(vel) / u_b
+        implicit = (np.abs(vel) < u_b) & (drag > 0.0)
+        return rho_s * gvec * np.where(implicit, centred, phi_f), np.where(implicit, drag, 0.0)
 
     def coefficients(self, phi_e, p_k, S, dt: float, dense) -> Coefficients:
         """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2).
@@ -341,8 +415,18 @@ class Model:
         phi_e = self.effective_packing(phi)
         rho_f = mom.face_density(ops, phi, mat.rho_s, self.ambient.rho_a)
         adv = mom.momentum_advection(ops, state.vel, self.advection)
-        f_g = self.gravity_force(phi, state.vel, dt)
+        f_g, drag = self.gravity_split(phi, state.vel, dt)
         rhs_u = rho_f * (state.vel / dt - adv) + f_g
+        gas_sys, border, rhs_gas = None, None, []
+        if self.gas_coupling is not None:
+            try:
+                gas_sys = self.gas_coupling.prepare(phi, state.p_f, state.vel, dt, dense)
+            except GranflowInputError as err:
+                return self._failed(dt, f"pore-pressure block: {err}", 0, tim)
+            if gas_sys.n_wet:
+                border = gas_sys.border(mat.p_atm)
+                rhs_gas = [gas_sys.scaled_rhs(mat.p_atm)]
+        p_f_new = state.p_f.ravel()
         u_k = state.vel.copy()
         p_k = np.maximum(state.p.ravel(), 0.0)
         free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
@@ -360,10 +444,10 @@ class Model:
                                         f"dense cells: {coef.nonfinite}", sweeps, tim)
             n_negz = max(n_negz, coef.n_negative_Z)
             eta_n = ops.cell_to_node @ coef.eta_c
-            a_data = self.assembler.velocity_data(rho_f / dt, coef.eta_c, eta_n)
+            a_data = self.assembler.velocity_data(rho_f / dt + drag, coef.eta_c, eta_n)
             act = dense & ~free
-            K = self.assembler.saddle(a_data, act, coef.C)
-            rhs = np.concatenate([rhs_u, -coef.b[act]])
+            K = self.assembler.saddle(a_data, act, coef.C, border)
+            rhs = np.concatenate([rhs_u, -coef.b[act]] + rhs_gas)
             t1 = time.perf_counter()
             tim["assembly"] += t1 - t0
             with warnings.catch_warnings():
@@ -378,7 +462,10 @@ class Model:
                 return self._failed(dt, "non-finite solution of the linear system", sweeps, tim)
             u_new = sol[:n]
             p_new = np.zeros(g.n_cells)
-            p_new[act] = sol[n:]
+            m = int(np.count_nonzero(act))
+            p_new[act] = sol[n:n + m]
+            if gas_sys is not None:
+                p_f_new = gas_sys.expand(sol[n + m:])
             eta_last = (coef.eta_c, eta_n)
             div_u = ops.div @ u_new
             to_free = act & (p_new < 0.0)
@@ -396,13 +483,15 @@ class Model:
                 break
         if not converged and rel > self.picard.fail_tol:
             return self._failed(dt, f"Picard diverged (relative increment {rel:.3g})", sweeps, tim)
+        if gas_sys is not None and np.any(p_f_new <= -mat.p_atm):
+            return self._failed(dt, "p_f below vacuum (p_f <= -p_atm)", sweeps, tim)
         dV = g.cell_volume
         diss_y = ops.dissipation(u_k, *eta_last)
         diss_d = -dV * float(p_solve @ (ops.div @ u_k))  # the p of the solve (before freeing)
         du = u_k - state.vel
         be = 0.5 * dV * float(rho_f @ (du * du)) / dt
         adv_pow = dV * float((rho_f * adv) @ u_k)
-        grav_pow = dV * float(f_g @ u_k)
+        grav_pow = dV * float((f_g - drag * u_k) @ u_k)
         # --- transport -------------------------------------------------------------------------
         t0 = time.perf_counter()
         cfl = cfl_number(g, u_k, dt)
@@ -418,6 +507,12 @@ class Model:
                                     f"{self.phi_tolerance:.2%}", sweeps, tim)
         if bounds.min_before < -mat.phi_max * self.phi_tolerance:
             return self._failed(dt, f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance", sweeps, tim)
+        gas_powers = None
+        if gas_sys is not None:
+            t0 = time.perf_counter()
+            gas_powers = self.gas_coupling.powers(gas_sys, p_f_new, u_k, phi_clip)
+            tim["assembly"] += time.perf_counter() - t0
+            state.p_f = p_f_new.reshape(g.cell_shape)
         state.phi = phi_clip
         state.vel = u_k
         state.p = p_k.reshape(g.cell_shape)
@@ -431,7 +526,7 @@ class Model:
             added_mass=bounds.added_mass, max_phi_before_clip=bounds.max_before,
             min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
             dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
-            gravity_power=grav_pow, timings=tim)
+            gravity_power=grav_pow, timings=tim, gas=gas_powers)
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:

@@ -25,17 +25,27 @@ not unknowns):
     [ Grad_act^T  -diag(C)   ] [p_act] = [ -b_act ]
 
 with ``A = diag(rho_f/dt) + V`` and ``Grad^T = -Div``, so each row of the second block reads
-``Div u + C p = b`` (the linearised dilatancy law). A pore-pressure block will be a third block
-row and column (``[Grad; 0; gas rows]``, NUMERICS.md §3.1), assembled the same way from
-coordinate triplets; this module does not depend on it.
+``Div u + C p = b`` (the linearised dilatancy law). The pore-pressure block (paper eq. syst2b,
+:mod:`granflow.physics.coupling`) is a third block row and column on the *wet* cells
+(:class:`GasBorder`, NUMERICS.md §3.1):
+
+    [ A           Grad_act   Grad_wet  ] [u     ]   [ r_u            ]
+    [ Grad_act^T  -diag(C)   0         ] [p_act ] = [ -b_act         ]
+    [ Grad_wet^T  0          -M/p_atm  ] [p_wet ]   [ -r_gas/p_atm   ]
+
+i.e. the momentum rows get the full ``Grad p_f`` (paper eq. syst3b) and the gas rows
+``M p_f + p_atm Div u = r_gas``, multiplied by ``-1/p_atm`` so that the whole matrix stays
+symmetric (Biot-type structure; ``M`` is symmetric for both gas laws).
 """
 from __future__ import annotations
 
 from enum import Enum
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 
+from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side
 from granflow.operators import GHOST_SIGN, Operators
 
@@ -199,6 +209,15 @@ def _row_pairs(B: sp.spmatrix, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return np.concatenate(keys), np.concatenate(rows), np.concatenate(vals)
 
 
+class GasBorder(NamedTuple):
+    """The pore-pressure border of the saddle-point matrix (:meth:`SaddleAssembler.saddle`)."""
+
+    wet: np.ndarray
+    """bool (n_cells,): cells carrying a p_f unknown (the others have p_f = 0)."""
+    block: sp.spmatrix
+    """(n_wet, n_wet): the gas rows' own block, already scaled (``-M_wet/p_atm``)."""
+
+
 class SaddleAssembler:
     """Fast assembly of the (u, p) saddle-point matrix with a fixed sparsity pattern.
 
@@ -245,8 +264,17 @@ class SaddleAssembler:
         """``A`` as a CSR matrix from :meth:`velocity_data`."""
         return sp.csr_matrix((data, (self._rows, self._cols)), shape=(self.n, self.n))
 
-    def saddle(self, a_data, active, C) -> sp.csc_matrix:
-        """``[[A, Grad_act], [Grad_act^T, -diag(C_act)]]``, pressure unknowns = active cells.
+    def _grad_columns(self, mask, offset: int):
+        """Triplets of ``Grad[:, mask]`` with the columns renumbered from ``offset``."""
+        idx = np.flatnonzero(mask)
+        renum = np.full(mask.size, -1, dtype=np.int64)
+        renum[idx] = offset + np.arange(idx.size)
+        keep = mask[self._g_cols]
+        return self._g_rows[keep], renum[self._g_cols[keep]], self._g_vals[keep], idx
+
+    def saddle(self, a_data, active, C, border: GasBorder | None = None) -> sp.csc_matrix:
+        """``[[A, Grad_act], [Grad_act^T, -diag(C_act)]]``, pressure unknowns = active cells,
+        optionally bordered by the pore-pressure block (module docstring).
 
         Parameters
         ----------
@@ -255,27 +283,37 @@ class SaddleAssembler:
         active : ndarray of bool, (n_cells,)
         C : ndarray, (n_cells,)
             Constraint coefficient (only the active entries are used).
+        border : GasBorder, optional
+            p_f unknowns on ``border.wet`` (ordered after the pressures), coupled to the velocity
+            by ``Grad_wet`` and its transpose.
         """
         n = self.n
-        idx = np.flatnonzero(active)
+        gr, gp, gv, idx = self._grad_columns(np.asarray(active, dtype=bool), n)
         m = idx.size
-        renum = np.full(active.size, -1, dtype=np.int64)
-        renum[idx] = n + np.arange(m)
-        keep = active[self._g_cols]
-        gr, gp, gv = self._g_rows[keep], renum[self._g_cols[keep]], self._g_vals[keep]
         diag = n + np.arange(m)
-        rows = np.concatenate([self._rows, gr, gp, diag])
-        cols = np.concatenate([self._cols, gp, gr, diag])
-        vals = np.concatenate([a_data, gv, gv, -np.asarray(C, dtype=float)[idx]])
-        return sp.csc_matrix((vals, (rows, cols)), shape=(n + m, n + m))
+        rows = [self._rows, gr, gp, diag]
+        cols = [self._cols, gp, gr, diag]
+        vals = [a_data, gv, gv, -np.asarray(C, dtype=float)[idx]]
+        size = n + m
+        if border is not None:
+            fr, fp, fv, widx = self._grad_columns(np.asarray(border.wet, dtype=bool), size)
+            blk = sp.coo_matrix(border.block)
+            if blk.shape != (widx.size, widx.size):
+                raise GranflowInputError(f"border block shape {blk.shape} != ({widx.size}, {widx.size})")
+            rows += [fr, fp, size + blk.row.astype(np.int64)]
+            cols += [fp, fr, size + blk.col.astype(np.int64)]
+            vals += [fv, fv, blk.data]
+            size += widx.size
+        return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(size, size))
 
     def bordered(self, K: sp.spmatrix, col_u: sp.spmatrix, row_u: sp.spmatrix,
                  diag: sp.spmatrix) -> sp.csc_matrix:
         """Append ``k`` unknowns coupled to the velocity only: ``[[K, [col_u; 0]], [[row_u, 0], diag]]``.
 
-        The extension point of the pore-pressure coupling (NUMERICS.md §3.1): for p_f,
-        ``col_u = Grad`` (the ``grad p_f`` force), ``row_u = p_atm Div`` (the gas rows' ``p_atm div u``)
-        and ``diag`` the implicit gas matrix, all restricted by the caller to the wet cells.
+        A generic (slower, ``scipy.sparse.bmat``) form of the border; the model's pore-pressure
+        coupling uses the fixed-pattern, symmetric ``saddle(..., border=GasBorder(...))``, i.e.
+        ``col_u = Grad_wet``, ``row_u = Grad_wet^T = -Div_wet`` and ``diag = -M/p_atm``.
 
         Parameters
         ----------
