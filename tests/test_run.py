@@ -333,3 +333,21 @@ def test_terminal_progress_line_is_rewritten_in_place(monkeypatch):
     text = stream.getvalue()
     assert text.startswith("\rt = 0.25/1 s  step 250  dt = 0.001 s  50.0 steps/s") and text.endswith("\n")
     assert "ETA 0:00:15" in text and "wall 0:00:05" in text
+
+
+def test_flagship_fluidised_example_smoke(capsys, tmp_path):
+    """The README's first command on a tiny grid: runs, keeps a pore pressure, writes figures."""
+    flagship = EXAMPLE.with_name("column_collapse_fluidised.toml")
+    out = tmp_path / "fl"
+    code, _, err = run_cli(capsys, "run", flagship, "--out", out, *TINY, "--set", "time.stop_time=0.03")
+    assert code == RunExit.COMPLETED, err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "completed" and abs(s["mass_rel_error"]) <= 1e-12
+    with xr.open_dataset(out / "output.nc") as ds:
+        pf0 = ds["p_f"][0].values
+        # b0 = 0.9 of the lithostatic pressure of a column at phi0 = 0.58: basal cell centre value.
+        dz = 0.15 / 6
+        expected = 0.9 * 0.58 * 2500.0 * 9.81 * (0.1 - dz / 2)
+        assert pf0[0, 0] == pytest.approx(expected, rel=1e-10)
+        assert float(ds["p_f"][-1].max()) > 0.0
+    assert (out / "snapshots.png").exists()
