@@ -166,3 +166,186 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     fig.savefig(front_path, dpi=100)
     plt.close(fig)
     return [snap_path, front_path]
+
+
+# --------------------------------------------------------------------------------------------
+# Snapshots and animations of a run's output.nc (granflow plot)
+# --------------------------------------------------------------------------------------------
+#: Variables of ``granflow plot``: the cell-centred NetCDF fields and the derived granular speed.
+PLOT_VARIABLES = ("phi", "u", "w", "p", "p_f", "S", "speed")
+#: The derived variable |u| = sqrt(u^2 + w^2) [m s-1].
+SPEED = "speed"
+#: Colour maps: packing, signed velocities (centred on zero), everything else.
+PHI_CMAP, SIGNED_CMAP, DEFAULT_CMAP = "YlOrBr", "RdBu_r", "viridis"
+SIGNED_VARIABLES = ("u", "w")
+#: Frames per second of ``--animate`` GIFs and resolution of the figures.
+GIF_FPS = 5
+FIGURE_DPI = 100
+#: Figure width [in]; the height follows the aspect ratio of the box (within limits).
+FIGURE_WIDTH_IN = 7.0
+MIN_HEIGHT_IN, MAX_HEIGHT_IN = 2.0, 7.0
+#: Extra height for the title, the axis labels and the colour bar below the axes [in].
+FIGURE_MARGIN_IN = 1.6
+
+
+def free_surface_level(ds) -> float:
+    """phi_c of the run (``numerics.ambient.phi_c`` of the ``config_effective`` attribute): cells
+    with phi < phi_c are the light ambient (NUMERICS.md §7), so the phi = phi_c contour is the free
+    surface. Falls back to the default of :class:`granflow.model.AmbientParams`."""
+    import tomllib
+
+    from granflow.model import AmbientParams
+
+    try:
+        config = tomllib.loads(str(ds.attrs.get("config_effective", "")))
+        return float(config["numerics"]["ambient"]["phi_c"])
+    except (tomllib.TOMLDecodeError, KeyError, TypeError, ValueError):
+        return float(AmbientParams.model_fields["phi_c"].default)
+
+
+def run_field(ds, var: str):
+    """The field ``var`` of a run dataset over (time, x, z), with ``units`` and ``long_name``
+    (``"speed"``: sqrt(u^2 + w^2) of the cell-centred velocities, in the units of ``u``).
+
+    Raises
+    ------
+    KeyError
+        If the dataset does not hold the variable (or ``u`` and ``w`` for the speed).
+    """
+    if var == SPEED:
+        u, w = ds["u"], ds["w"]
+        field = np.hypot(u, w)
+        field.attrs = {"units": u.attrs.get("units", ""), "long_name": "granular speed |u|"}
+    else:
+        field = ds[var]
+    field.name = var
+    return field.transpose("time", "x", "z")
+
+
+def field_label(field) -> str:
+    """Colour-bar label ``long_name [units]`` from the variable's attributes."""
+    name = field.attrs.get("long_name", field.name)
+    units = field.attrs.get("units")
+    return f"{name} [{units}]" if units else str(name)
+
+
+def colour_limits(field, var: str, phi_max: float | None = None) -> tuple[float, float]:
+    """Colour range over every record: [0, phi_max] for phi, symmetric about 0 for u and w,
+    the finite data range otherwise (widened when constant)."""
+    if var == "phi" and phi_max is not None:
+        return 0.0, float(phi_max)
+    values = np.asarray(field.values, dtype=float)
+    finite = values[np.isfinite(values)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+    if var in SIGNED_VARIABLES:
+        hi = max(abs(lo), abs(hi))
+        lo = -hi
+    if not hi > lo:  # constant field: any non-empty range around it
+        pad = abs(hi) if hi != 0.0 else 1.0
+        lo, hi = lo - pad, hi + pad
+    return lo, hi
+
+
+def _cmap(var: str) -> str:
+    return PHI_CMAP if var == "phi" else SIGNED_CMAP if var in SIGNED_VARIABLES else DEFAULT_CMAP
+
+
+def _title(ds, var: str, index: int) -> str:
+    n = ds.sizes["time"]
+    t = float(ds["time"].values[index])
+    return f"{ds.attrs.get('case', 'granflow')}: {var}, t = {t:.4g} s (record {index + 1}/{n})"
+
+
+def _surface(ax, ds, index: int, phi_c: float):
+    """The phi = phi_c contour of record ``index`` (None if phi is absent or does not cross it)."""
+    if "phi" not in ds:
+        return None
+    phi = np.asarray(ds["phi"].transpose("time", "x", "z").values[index], dtype=float)
+    if not (np.nanmin(phi) < phi_c < np.nanmax(phi)):
+        return None
+    return ax.contour(ds["x"].values, ds["z"].values, phi.T, levels=[phi_c], colors="k",
+                      linewidths=1.0)
+
+
+def _figure(ds):
+    plt = _pyplot()
+    x, z = ds["x"].values, ds["z"].values
+    lx = float(x[-1] - x[0]) if x.size > 1 else 1.0
+    lz = float(z[-1] - z[0]) if z.size > 1 else 1.0
+    height = min(max(FIGURE_WIDTH_IN * lz / lx, MIN_HEIGHT_IN), MAX_HEIGHT_IN) + FIGURE_MARGIN_IN
+    fig, ax = plt.subplots(figsize=(FIGURE_WIDTH_IN, height), constrained_layout=True)
+    return plt, fig, ax
+
+
+def snapshot_axes(ax, ds, var: str, index: int, limits: tuple[float, float] | None = None):
+    """Draw ``var`` at record ``index`` on ``ax`` with the free surface (phi = phi_c contour).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    ds : xarray.Dataset
+        A ``granflow run`` output (``output.nc``).
+    var : str
+        One of :data:`PLOT_VARIABLES`.
+    index : int
+        Record (time index).
+    limits : (float, float), optional
+        Colour range; default :func:`colour_limits` of this record.
+
+    Returns
+    -------
+    mesh, contour, colorbar
+        The ``pcolormesh``, the free-surface ``ContourSet`` (None if there is none) and the
+        colour bar (label ``long_name [units]``).
+    """
+    field = run_field(ds, var)
+    vmin, vmax = limits or colour_limits(field[index], var, ds.attrs.get("phi_max"))
+    x, z = ds["x"].values, ds["z"].values
+    mesh = ax.pcolormesh(x, z, np.asarray(field.values[index], dtype=float).T, vmin=vmin, vmax=vmax,
+                         cmap=_cmap(var), shading="nearest")
+    contour = _surface(ax, ds, index, free_surface_level(ds))
+    bar = ax.figure.colorbar(mesh, ax=ax, location="bottom", shrink=0.9, aspect=40)
+    bar.set_label(field_label(field))
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"x [{ds['x'].attrs.get('units', 'm')}]")
+    ax.set_ylabel(f"z [{ds['z'].attrs.get('units', 'm')}]")
+    ax.set_title(_title(ds, var, index) + f"; line: phi = {free_surface_level(ds):g}",
+                 fontsize="small")
+    return mesh, contour, bar
+
+
+def snapshot_figure(ds, var: str, index: int, path: str | Path) -> Path:
+    """Write the snapshot of ``var`` at record ``index`` (:func:`snapshot_axes`) to ``path``."""
+    plt, fig, ax = _figure(ds)
+    snapshot_axes(ax, ds, var, index)
+    fig.savefig(path, dpi=FIGURE_DPI)
+    plt.close(fig)
+    return Path(path)
+
+
+def animate_run(ds, var: str, path: str | Path, fps: int = GIF_FPS) -> Path:
+    """Write a GIF of ``var`` over every record of ``ds`` (one frame per record, fixed colour
+    range over the run, the free surface redrawn in each frame) with
+    :class:`matplotlib.animation.PillowWriter`."""
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    plt, fig, ax = _figure(ds)
+    field = run_field(ds, var)
+    limits = colour_limits(field, var, ds.attrs.get("phi_max"))
+    mesh, contour, _ = snapshot_axes(ax, ds, var, 0, limits)
+    phi_c = free_surface_level(ds)
+    values = np.asarray(field.values, dtype=float)
+    state = {"contour": contour}
+
+    def update(i: int):
+        mesh.set_array(values[i].T)
+        if state["contour"] is not None:
+            state["contour"].remove()
+        state["contour"] = _surface(ax, ds, i, phi_c)
+        ax.set_title(_title(ds, var, i) + f"; line: phi = {phi_c:g}", fontsize="small")
+        return (mesh,)
+
+    anim = FuncAnimation(fig, update, frames=ds.sizes["time"], blit=False, repeat=False)
+    anim.save(path, writer=PillowWriter(fps=fps), dpi=FIGURE_DPI)
+    plt.close(fig)
+    return Path(path)

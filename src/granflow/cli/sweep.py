@@ -1,0 +1,273 @@
+"""``granflow sweep SWEEP.toml``: an ensemble of runs of one case on a Dask cluster.
+
+A sweep file has two tables::
+
+    [sweep]
+    base = "column_collapse_fluidised.toml"   # case file, relative to the sweep file
+    mode = "grid"                              # "grid" | "zip" | "lhs"
+    # samples = 20, seed = 1                   # "lhs" only
+
+    [parameters]
+    "setup.b0" = { values = [0.0, 0.5, 0.9] }
+    "material.d" = { range = [6e-5, 8e-5], n = 3 }    # n points, ends included
+    # "gravity.slope_deg" = { lhs = [0.0, 20.0] }     # mode = "lhs"
+
+Unquoted dotted keys (``setup.b0 = {...}``) and sub-tables (``[parameters.setup]``) mean the same.
+Everything is checked before any member runs: unknown keys of the sweep file, the parameter
+definitions (:class:`granflow.sweep.SweepSpec`), the base case file, and the case configuration of
+every member (an error names the member, its overrides and the key). The members then run with
+:func:`granflow.sweep.run_sweep` and :func:`granflow.cases.sweep_member.run_member`; a table of
+members is printed and ``DIR/sweep_summary.csv`` written.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from granflow.cli import ExitCode
+from granflow.errors import GranflowInputError
+
+SWEEP_TABLE = "sweep"
+PARAMETERS_TABLE = "parameters"
+SWEEP_KEYS = ("base", "mode", "samples", "seed")
+"""Keys of the ``[sweep]`` table."""
+KIND_KEYS = ("values", "range", "lhs")
+"""Keys that make a table of ``[parameters]`` a parameter definition (else a namespace)."""
+PARAMETER_KEYS = (*KIND_KEYS, "n")
+LOCAL_WORKERS = 2
+"""Worker processes of the local cluster when neither --workers nor --scheduler is given."""
+DEFAULT_RUNS_DIR = "runs"
+"""Parent of the default sweep directory ``runs/<sweep-file name>``."""
+MAX_MEMBER_ERRORS = 3
+"""Invalid members named in the error message (the count of the others is given)."""
+KEY_SEP = "."
+COLUMN_GAP = "  "
+
+EXIT_CODES_HELP = f"""exit codes:
+  {ExitCode.OK:<4d} every member completed (now or in an earlier invocation)
+  {ExitCode.FAILED:<4d} at least one member failed (its error is in the table, in DIR/<id>/error.json
+       and in sweep_summary.csv); the other members ran. Run the same command again to retry
+       the failed members only (finished members are skipped).
+  {ExitCode.BAD_INPUT:<4d} bad input, before any member runs: sweep-file or base-case errors, an invalid
+       member configuration (named), --workers with --scheduler, DIR holding another sweep;
+       also an unreachable --scheduler (after Dask's connect timeout, 30 s by default)
+  {ExitCode.INTERNAL:<4d} internal error (a bug): traceback printed
+  Ctrl-C stops the sweep (exit 1); run the same command again to finish it."""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register ``granflow sweep`` (without importing Dask or xarray: keeps ``granflow`` fast)."""
+    p = sub.add_parser("sweep", help="run an ensemble of a case on a Dask cluster",
+                       description="Run every member of a sweep file (a base case plus parameter "
+                       "values, ranges or a Latin hypercube) on a local Dask cluster or an "
+                       "existing one; see docs/sweeps.md.", epilog=EXIT_CODES_HELP,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("sweep_file", metavar="SWEEP.toml", help="sweep file ([sweep] and [parameters])")
+    p.add_argument("--out", metavar="DIR", help="sweep directory, visible to every worker "
+                   f"(default {DEFAULT_RUNS_DIR}/<sweep-file name>)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="address of an existing Dask scheduler, "
+                   "e.g. tcp://10.0.0.1:8786 (default: start a local cluster)")
+    p.add_argument("--workers", type=int, metavar="N", help="worker processes of the local "
+                   f"cluster (default {LOCAL_WORKERS}); not with --scheduler")
+    p.set_defaults(func=cmd_sweep)
+
+
+# --------------------------------------------------------------------------------------------
+# reading and checking the sweep file
+# --------------------------------------------------------------------------------------------
+def _unknown(keys, allowed, where: str) -> None:
+    bad = [k for k in keys if k not in allowed]
+    if bad:
+        raise GranflowInputError(f"{where}: unknown key(s) {', '.join(map(repr, bad))} (expected "
+                                 f"any of: {', '.join(allowed)})")
+
+
+def flatten_parameters(table: Mapping[str, Any], prefix: str = "") -> dict[str, dict[str, Any]]:
+    """``[parameters]`` as ``{"a.b": {"values": [...]}, ...}``, accepting nested tables.
+
+    A table is a parameter definition if it has one of :data:`KIND_KEYS`; otherwise it is a
+    namespace (``[parameters.setup]``) whose entries are parameters.
+
+    Raises
+    ------
+    GranflowInputError
+        For a definition with unknown keys or an entry that is not a table.
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for key, value in table.items():
+        name = f"{prefix}{key}"
+        where = f"{PARAMETERS_TABLE}.{name!r}" if KEY_SEP in name else f"{PARAMETERS_TABLE}.{name}"
+        if not isinstance(value, Mapping):
+            raise GranflowInputError(f"{where}: expected a table such as {{values = [...]}}, "
+                                     "{range = [lo, hi], n = k} or {lhs = [lo, hi]} "
+                                     f"(got {value!r})")
+        if any(k in value for k in KIND_KEYS):
+            _unknown(value, PARAMETER_KEYS, where)
+            out[name] = dict(value)
+        elif not value:
+            raise GranflowInputError(f"{where}: empty table; give values, range or lhs")
+        else:
+            out.update(flatten_parameters(value, name + KEY_SEP))
+    return out
+
+
+def with_all_sections(case: Mapping[str, Any]) -> dict[str, Any]:
+    """The case file ``case`` with an empty table for every section it leaves at its defaults.
+
+    :class:`granflow.sweep.SweepSpec` accepts an override only in a section of its base (so that a
+    misspelt section is an error); the empty tables let a sweep set e.g. ``numerics.picard.tol``
+    of a case file without ``[numerics]``. They do not change the case (every option has a
+    default).
+    """
+    from granflow.config import CaseConfig
+
+    out = dict(case)
+    for section, field in CaseConfig.model_fields.items():
+        if field.is_required():
+            continue
+        out.setdefault(section, {})
+    return out
+
+
+def load_sweep(path: str | Path):
+    """Read a sweep file: ``(SweepSpec, base case path)``; every problem is a
+    :class:`GranflowInputError` naming the file and the key."""
+    from granflow.cases.options import read_toml
+    from granflow.sweep import SweepSpec
+
+    path = Path(path)
+    _, data = read_toml(path)
+    _unknown(data, (SWEEP_TABLE, PARAMETERS_TABLE), f"{path}")
+    sweep = data.get(SWEEP_TABLE)
+    if not isinstance(sweep, Mapping):
+        raise GranflowInputError(f"{path}: missing [{SWEEP_TABLE}] table (with base = \"case.toml\")")
+    _unknown(sweep, SWEEP_KEYS, f"{path}: [{SWEEP_TABLE}]")
+    base = sweep.get("base")
+    if not isinstance(base, str) or not base:
+        raise GranflowInputError(f"{path}: {SWEEP_TABLE}.base: expected the path of a case file "
+                                 f"relative to the sweep file (got {base!r})")
+    params = data.get(PARAMETERS_TABLE)
+    if not isinstance(params, Mapping) or not params:
+        raise GranflowInputError(f"{path}: missing or empty [{PARAMETERS_TABLE}] table")
+    parameters = flatten_parameters(params)
+    base_path = path.parent / base
+    _, base_data = read_toml(base_path)
+    base_data = with_all_sections(base_data)
+    spec_data = {k: v for k, v in sweep.items() if k != "base"}
+    try:
+        spec = SweepSpec.from_dict({**spec_data, "base": base_data, "parameters": parameters})
+    except GranflowInputError as err:
+        raise GranflowInputError(f"{path}: {err}") from None
+    return spec, base_path
+
+
+def _describe(overrides: Mapping[str, Any]) -> str:
+    return " ".join(f"{k}={_value(v)}" for k, v in overrides.items())
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v).replace(" ", "")
+
+
+def validate_members(spec) -> int:
+    """Validate the case configuration of every member; return the number of members.
+
+    Raises
+    ------
+    GranflowInputError
+        Naming the first :data:`MAX_MEMBER_ERRORS` invalid members, their overrides and the key.
+    """
+    from granflow.cases.sweep_member import validate_member
+
+    members = spec.members()
+    errors = []
+    for member_id, overrides in members:
+        try:
+            validate_member(spec.config(overrides))
+        except GranflowInputError as err:
+            errors.append(f"member {member_id} ({_describe(overrides)}): {err}")
+    if errors:
+        more = len(errors) - MAX_MEMBER_ERRORS
+        tail = f"; and {more} more invalid member(s)" if more > 0 else ""
+        raise GranflowInputError(f"{len(errors)} of {len(members)} member(s) invalid, nothing run: "
+                                 + "; ".join(errors[:MAX_MEMBER_ERRORS]) + tail)
+    return len(members)
+
+
+# --------------------------------------------------------------------------------------------
+# the command
+# --------------------------------------------------------------------------------------------
+def _runout(text: str) -> str:
+    try:
+        value = float(text)
+    except ValueError:
+        return "-"
+    return f"{value:.4g}" if math.isfinite(value) else "-"
+
+
+def _cell(text: str) -> str:
+    """An override as read from the CSV, floats shortened (Latin-hypercube values)."""
+    try:
+        value = float(text)
+    except ValueError:
+        return text
+    return f"{value:.6g}" if "." in text or "e" in text.lower() else text
+
+
+def format_table(rows: list[dict[str, str]], override_keys: list[str]) -> list[str]:
+    """Lines of the member table: id, overrides, status, run-out [m]."""
+    from granflow.sweep import STATUS_OK
+
+    head = ["member", "overrides", "status", "run-out [m]"]
+    body = []
+    for r in rows:
+        status = r["status"] + (" (cached)" if r["cached"] == "True" else "")
+        runout = _runout(r.get("runout_m", "")) if r["status"] == STATUS_OK else "-"
+        body.append([r["member_id"], " ".join(f"{k}={_cell(r[k])}" for k in override_keys),
+                     status, runout])
+    widths = [max(len(line[i]) for line in [head, *body]) for i in range(len(head))]
+    return [COLUMN_GAP.join(c.ljust(w) for c, w in zip(line, widths, strict=True)).rstrip()
+            for line in [head, *body]]
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """``granflow sweep``; returns 0 if every member completed, 1 if any failed."""
+    from granflow.cases.sweep_member import run_member
+    from granflow.sweep import STATUS_FAILED, run_sweep
+
+    if args.workers is not None and args.scheduler is not None:
+        raise GranflowInputError("--workers sets the size of the local cluster; it cannot be "
+                                 "combined with --scheduler")
+    if args.workers is not None and args.workers < 1:
+        raise GranflowInputError(f"--workers must be >= 1 (got {args.workers})")
+    workers = None if args.scheduler is not None else (args.workers or LOCAL_WORKERS)
+    spec, base_path = load_sweep(args.sweep_file)
+    n = validate_members(spec)
+    out = Path(args.out) if args.out else Path(DEFAULT_RUNS_DIR) / Path(args.sweep_file).stem
+    out = out.resolve()  # the workers may not share our working directory
+    where = f"scheduler {args.scheduler}" if args.scheduler else "a local Dask cluster"
+    print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
+          file=sys.stderr, flush=True)
+    try:
+        table = run_sweep(spec, run_member, out, scheduler=args.scheduler, workers=workers)
+    except OSError as err:  # e.g. the scheduler cannot be reached, out not writable
+        hint = f" (--scheduler {args.scheduler})" if args.scheduler else ""
+        raise GranflowInputError(f"sweep{hint}: {type(err).__name__}: {err}") from None
+    with open(table, newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    for line in format_table(rows, list(spec.parameters)):
+        print(line)
+    failed = [r for r in rows if r["status"] == STATUS_FAILED]
+    for r in failed:
+        first = (r["error"].splitlines() or [""])[0]
+        print(f"granflow: member {r['member_id']} failed: {first}", file=sys.stderr)
+    print(f"granflow: {len(rows) - len(failed)} of {len(rows)} member(s) completed; table in {table}",
+          file=sys.stderr)
+    return ExitCode.FAILED if failed else ExitCode.OK

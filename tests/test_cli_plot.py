@@ -1,0 +1,147 @@
+"""``granflow plot``: snapshots (PNG) and animations (GIF) of a run's output.nc, and bad input.
+
+One tiny run of the dry example (16 x 6 cells, 0.02 s, records every 5 ms: 5 records) is made
+once. Independent checks: file magic bytes; the GIF frame count read with PIL against the number
+of records read with netCDF4; the record picked for ``--time`` recomputed here (nearest time);
+the drawn array against the field read with netCDF4 (speed = hypot(u, w) computed here, exact to
+1e-12 relative); the free-surface contour level against ``numerics.ambient.phi_c`` parsed here
+from the file's ``config_effective`` attribute; the colour-bar label against the variable's
+``long_name`` and ``units`` attributes.
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import pytest
+
+from granflow.cli import ExitCode, main
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+GIF_MAGIC = (b"GIF87a", b"GIF89a")
+N_RECORDS = 5  # t = 0, 0.005, ..., 0.02 s
+
+
+def run_cli(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plot") / "run"
+    code = main(["run", str(EXAMPLE), "--out", str(out), "--quiet", "--set", "grid.nx=16",
+                 "--set", "grid.nz=6", "--set", "time.stop_time=0.02",
+                 "--set", "output.interval=0.005", "--set", "output.figures=false"])
+    assert code == ExitCode.OK
+    return out
+
+
+def nc_times(run_dir: Path) -> np.ndarray:
+    with netCDF4.Dataset(run_dir / "output.nc") as ds:
+        return np.asarray(ds["time"][:], dtype=float)
+
+
+def test_default_snapshot_is_the_last_record(run_dir, capsys):
+    assert nc_times(run_dir).size == N_RECORDS
+    code, out, err = run_cli(capsys, "plot", run_dir)
+    assert code == ExitCode.OK, err
+    png = run_dir / "phi_t0.02s.png"
+    assert png.read_bytes()[:8] == PNG_MAGIC
+    assert f"record {N_RECORDS} of {N_RECORDS}" in out
+
+
+@pytest.mark.parametrize("t", [0.0, 0.0061, 0.0139, 0.02])
+def test_time_picks_the_nearest_record(run_dir, tmp_path, capsys, t):
+    times = nc_times(run_dir)
+    nearest = int(np.argmin(np.abs(times - t)))
+    png = tmp_path / "sub" / "p.png"
+    code, out, err = run_cli(capsys, "plot", run_dir / "output.nc", "--var", "p", "--time", t,
+                             "--out", png)
+    assert code == ExitCode.OK, err
+    assert png.read_bytes()[:8] == PNG_MAGIC
+    assert f"record {nearest + 1} of {N_RECORDS}" in out
+    assert f"t = {times[nearest]:.6g} s" in out
+
+
+def test_animation_has_one_frame_per_record(run_dir, tmp_path, capsys):
+    from PIL import Image
+
+    gif = tmp_path / "speed.gif"
+    code, _, err = run_cli(capsys, "plot", run_dir, "--var", "speed", "--animate", gif)
+    assert code == ExitCode.OK, err
+    assert gif.read_bytes()[:6] in GIF_MAGIC
+    with Image.open(gif) as im:
+        assert im.n_frames == nc_times(run_dir).size == N_RECORDS
+    assert not list(run_dir.glob("speed_*.png"))  # --animate alone writes no snapshot
+    png = tmp_path / "u.png"
+    code, _, err = run_cli(capsys, "plot", run_dir, "--var", "u", "--animate", tmp_path / "u.gif",
+                           "--out", png)
+    assert code == ExitCode.OK, err
+    assert png.read_bytes()[:8] == PNG_MAGIC and (tmp_path / "u.gif").read_bytes()[:6] in GIF_MAGIC
+
+
+@pytest.mark.parametrize("var", ["phi", "p", "speed"])
+def test_snapshot_draws_the_field_surface_and_units(run_dir, var):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    from granflow import plotting
+
+    index = 2
+    with netCDF4.Dataset(run_dir / "output.nc") as nc:
+        phi_c = tomllib.loads(nc.getncattr("config_effective"))["numerics"]["ambient"]["phi_c"]
+        if var == "speed":
+            expected = np.hypot(np.asarray(nc["u"][index]), np.asarray(nc["w"][index]))
+            label = f"granular speed |u| [{nc['u'].units}]"
+        else:
+            expected = np.asarray(nc[var][index], dtype=float)
+            label = f"{nc[var].long_name} [{nc[var].units}]"
+    with xr.open_dataset(run_dir / "output.nc") as ds:
+        fig, ax = plt.subplots()
+        mesh, contour, bar = plotting.snapshot_axes(ax, ds.load(), var, index)
+    try:
+        drawn = np.asarray(mesh.get_array()).reshape(expected.T.shape)
+        np.testing.assert_allclose(drawn, expected.T, rtol=1e-12, atol=0.0)
+        assert bar.ax.get_xlabel() == label
+        assert contour is not None and list(contour.levels) == [phi_c]
+    finally:
+        plt.close(fig)
+
+
+# ------------------------------------------------------------------------------ bad input
+def test_bad_input_exits_2_in_one_line(run_dir, tmp_path, capsys):
+    import xarray as xr
+
+    no_pf = tmp_path / "no_pf.nc"
+    with xr.open_dataset(run_dir / "output.nc") as ds:
+        ds.drop_vars("p_f").to_netcdf(no_pf)
+    text = tmp_path / "junk.nc"
+    text.write_text("not netcdf\n")
+    cases = [
+        ((tmp_path / "missing",), "no such file"),
+        ((tmp_path,), "output.nc"),  # a directory without output.nc
+        ((text,), "not a readable NetCDF file"),
+        ((run_dir, "--var", "rho"), "invalid choice: 'rho'"),
+        ((no_pf, "--var", "p_f"), "has no p_f"),
+        ((run_dir, "--time", "0.5"), "outside the records"),
+        ((run_dir, "--time", "-0.001"), "outside the records"),
+        ((run_dir, "--time", "nan"), "outside the records"),
+        ((run_dir, "--out", tmp_path / "x.xyz"), "unsupported image format 'xyz'"),
+        ((run_dir, "--animate", tmp_path / "x.png"), "expected a .gif file"),
+    ]
+    for args, message in cases:
+        code, out, err = run_cli(capsys, "plot", *args)
+        assert code == ExitCode.BAD_INPUT, (args, err)
+        assert err.startswith("granflow: error: ") and message in err, (args, err)
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert out == ""
+    assert not (tmp_path / "x.xyz").exists() and not (tmp_path / "x.png").exists()

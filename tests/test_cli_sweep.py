@@ -1,0 +1,286 @@
+"""``granflow sweep``: sweep files, member validation before any run, a sweep on a
+``distributed.LocalCluster`` started here (passed with ``--scheduler``), a member that fails at run
+time, and the re-run that skips finished members.
+
+The base case is a fluidised column collapse (the flagship example's physics) on a 16 x 6 grid
+for 0.02 s (20 steps of 1 ms). The member that fails gets a Picard tolerance no step can meet
+(``max_sweeps = 1``, ``fail_tol = 1e-12``; see tests/test_run.py). Independent checks: the front
+and run-out recomputed here from each member's NetCDF phi (deposit thickness
+sum(phi dz)/phi_max > one cell height, right edge of the furthest such column; NUMERICS.md §10),
+exact to 1e-12 m; the initial pore pressure ratio p_f/(p + p_f) = b0 in the grains of record 0
+(rel. 1e-12), which shows each member ran with its own override.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import re
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import pytest
+
+from granflow.cli import ExitCode, main
+
+ROOT = Path(__file__).resolve().parents[1]
+NX, NZ, LX, LZ = 16, 6, 0.4, 0.15
+PHI_MAX = 0.6
+PHI_C = 0.3  # numerics.ambient.phi_c default: grains vs ambient
+B0 = [0.0, 0.5, 0.9]
+FAILING = "m0002"
+TINY_CASE = f"""
+[case]
+name = "column_collapse"
+[setup]
+H0 = 0.1
+L0 = 0.1
+phi0 = 0.58
+b0 = 0.9
+[material]
+d = 70e-6
+rho_s = 2500.0
+phi_max = {PHI_MAX}
+[closure]
+name = "drucker_prager"
+delta_deg = 26.74
+[gas]
+law = "linear"
+[grid]
+nx = {NX}
+nz = {NZ}
+Lx = {LX}
+Lz = {LZ}
+[time]
+stop_time = 0.02
+dt_max = 1e-3
+[output]
+interval = 0.01
+figures = false
+"""
+SWEEP = """
+[sweep]
+base = "case.toml"
+mode = "zip"
+
+[parameters]
+"setup.b0" = { values = [0.0, 0.5, 0.9] }
+"numerics.picard.max_sweeps" = { values = [4, 4, 1] }
+"numerics.picard.fail_tol" = { values = [0.5, 0.5, 1e-12] }
+"""
+
+
+def write_sweep(tmp_path: Path, sweep: str = SWEEP, case: str = TINY_CASE) -> Path:
+    (tmp_path / "case.toml").write_text(case)
+    path = tmp_path / "sweep.toml"
+    path.write_text(sweep)
+    return path
+
+
+def run_cli(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def read_table(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def fronts_from_nc(path: Path) -> list[float]:
+    """Front at every record, from phi alone (written here, NUMERICS.md §10)."""
+    edges = np.linspace(0.0, LX, NX + 1)
+    dz = LZ / NZ
+    with netCDF4.Dataset(path) as ds:
+        phi = np.asarray(ds["phi"][:], dtype=float)
+    out = []
+    for rec in phi:
+        h = rec.sum(axis=1) * dz / PHI_MAX
+        cols = np.nonzero(h > dz)[0]  # default threshold: one cell height
+        out.append(float(edges[cols[-1] + 1]))
+    return out
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0") as c:
+        yield c
+
+
+# ------------------------------------------------------------------------------ the sweep
+def test_sweep_on_a_local_cluster_records_the_failure_and_resumes(tmp_path, capsys, cluster):
+    sweep = write_sweep(tmp_path)
+    out = tmp_path / "out"
+    code, stdout, stderr = run_cli(capsys, "sweep", sweep, "--out", out,
+                                   "--scheduler", cluster.scheduler_address)
+    assert code == ExitCode.FAILED, stderr
+    rows = read_table(out / "sweep_summary.csv")
+    assert [r["member_id"] for r in rows] == ["m0000", "m0001", FAILING]
+    assert [float(r["setup.b0"]) for r in rows] == B0
+    for row, b0 in zip(rows, B0, strict=True):
+        mdir = out / row["member_id"]
+        nc = mdir / "run" / "output.nc"
+        with netCDF4.Dataset(nc) as ds:  # record 0: the member's own initial pore pressure
+            phi, p, p_f = (np.asarray(ds[v][0], dtype=float) for v in ("phi", "p", "p_f"))
+        grains = (phi >= PHI_C) & (p + p_f > 0)
+        assert grains.sum() > 0
+        np.testing.assert_allclose(p_f[grains] / (p + p_f)[grains], b0, rtol=1e-12, atol=1e-15)
+        assert row["cached"] == "False"
+        if row["member_id"] == FAILING:
+            assert row["status"] == "failed"
+            assert "MemberRunFailed" in row["error"] and "Picard" in row["error"]
+            assert "step 1" in row["error"]
+            assert not (mdir / "summary.json").exists()
+            err = json.loads((mdir / "error.json").read_text())
+            assert "Picard" in err["error"] and "run_member" in err["traceback"]
+            assert json.loads((mdir / "run" / "summary.json").read_text())["status"] == "failed"
+            assert row["runout_m"] == ""
+        else:
+            assert row["status"] == "ok" and row["error"] == ""
+            fronts = fronts_from_nc(nc)
+            assert float(row["runout_m"]) == pytest.approx(fronts[-1] - fronts[0], abs=1e-12)
+            assert float(row["t_final"]) == pytest.approx(0.02, abs=1e-12)
+            assert int(row["steps"]) == 20 and row["summary.status"] == "completed"
+            assert float(row["case_diagnostics.b0"]) == b0
+            summary = json.loads((mdir / "summary.json").read_text())
+            assert summary["runout_m"] == float(row["runout_m"])
+            assert (mdir / "run" / "case.toml").is_file()
+
+    # the printed table: one line per member with id, overrides, status, run-out
+    lines = stdout.splitlines()
+    assert lines[0].split() == ["member", "overrides", "status", "run-out", "[m]"]
+    for line, row, b0 in zip(lines[1:], rows, B0, strict=True):
+        assert line.startswith(row["member_id"]) and f"setup.b0={b0:g}" in line
+        status = "failed" if row["member_id"] == FAILING else "ok"
+        assert re.search(rf"\s{status}\s", line + " ")
+        if status == "ok":
+            assert line.split()[-1] == f"{float(row['runout_m']):.4g}"
+    assert sum(f"member {FAILING} failed" in ln for ln in stderr.splitlines()) == 1
+
+    # re-run: finished members are skipped (outputs untouched), the failed one runs again
+    stamps = {m: (out / m / "run" / "output.nc").stat().st_mtime_ns for m in ("m0000", "m0001")}
+    err_stamp = (out / FAILING / "error.json").stat().st_mtime_ns
+    code, stdout, stderr = run_cli(capsys, "sweep", sweep, "--out", out,
+                                   "--scheduler", cluster.scheduler_address)
+    assert code == ExitCode.FAILED
+    rows2 = read_table(out / "sweep_summary.csv")
+    assert [(r["status"], r["cached"]) for r in rows2] == [("ok", "True"), ("ok", "True"),
+                                                           ("failed", "False")]
+    assert [r["runout_m"] for r in rows2] == [r["runout_m"] for r in rows]
+    for m, stamp in stamps.items():
+        assert (out / m / "run" / "output.nc").stat().st_mtime_ns == stamp, m
+    assert (out / FAILING / "error.json").stat().st_mtime_ns > err_stamp
+    assert stdout.count("ok (cached)") == 2
+
+
+def test_default_local_cluster_and_all_cached_rerun(tmp_path, capsys):
+    """Without --scheduler the sweep starts (and closes) its own cluster; exit 0 when every member
+    completed, also on a re-run where all are cached (no cluster needed)."""
+    pytest.importorskip("distributed")
+    sweep = write_sweep(tmp_path, '[sweep]\nbase = "case.toml"\n[parameters]\n'
+                                  '"setup.b0" = { values = [0.5] }\n')
+    for cached in (False, True):
+        code, _, stderr = run_cli(capsys, "sweep", sweep, "--out", tmp_path / "o",
+                                  "--workers", "1")
+        assert code == ExitCode.OK, stderr
+        row, = read_table(tmp_path / "o" / "sweep_summary.csv")
+        assert (row["status"], row["cached"]) == ("ok", str(cached))
+        assert "1 of 1 member(s) completed" in stderr
+
+
+# ------------------------------------------------------------------------------ bad input
+def _bad(tmp_path, capsys, sweep: str, *extra, case: str = TINY_CASE):
+    path = write_sweep(tmp_path, sweep, case)
+    out = tmp_path / "never"
+    code, stdout, stderr = run_cli(capsys, "sweep", path, "--out", out, *extra)
+    assert code == ExitCode.BAD_INPUT, stderr
+    assert len(stderr.strip().splitlines()) == 1 and stderr.startswith("granflow: error: ")
+    assert "Traceback" not in stderr and stdout == ""
+    assert not out.exists()  # nothing ran, nothing written
+    return stderr
+
+
+GOOD_PARAMS = '[parameters]\n"setup.b0" = { values = [0.0, 0.5] }\n'
+
+
+@pytest.mark.parametrize("sweep, culprits", [
+    ('[sweep]\nbase = "case.toml"\nsedd = 1\n' + GOOD_PARAMS, ["'sedd'"]),
+    ('[sweep]\nbase = "case.toml"\n' + GOOD_PARAMS + "[extra]\na = 1\n", ["'extra'"]),
+    ('[sweep]\nbase = "case.toml"\n[parameters]\n"setup.b0" = { valuse = [0.5], values = [1] }\n',
+     ["'valuse'", "setup.b0"]),
+    ('[sweep]\nbase = "case.toml"\n[parameters]\n"setup.b0" = 0.5\n', ["setup.b0", "table"]),
+    ('[sweep]\nbase = "missing.toml"\n' + GOOD_PARAMS, ["missing.toml"]),
+    (GOOD_PARAMS, ["[sweep]"]),
+    ('[sweep]\nbase = "case.toml"\n', ["[parameters]"]),
+    (('[sweep]\nbase = "case.toml"\nmode = "zip"\n[parameters]\n"setup.b0" = { values = [0.0, 0.5] }\n'
+      '"setup.H0" = { values = [0.1] }\n'), ["equally"]),
+    ('[sweep]\nbase = "case.toml"\nmode = "random"\n' + GOOD_PARAMS, ["mode"]),
+    ('[sweep]\nbase = "case.toml"\n[parameters]\n"stup.b0" = { values = [0.5] }\n', ["'stup'"]),
+    ('[sweep]\nbase = "case.toml"\nmode = "lhs"\n[parameters]\n"setup.b0" = { lhs = [0.0, 0.9] }\n',
+     ["samples", "seed"]),
+])
+def test_sweep_file_errors_name_the_key(tmp_path, capsys, sweep, culprits):
+    err = _bad(tmp_path, capsys, sweep)
+    for culprit in culprits:
+        assert culprit in err, (culprit, err)
+
+
+def test_every_member_is_validated_before_any_run(tmp_path, capsys):
+    sweep = ('[sweep]\nbase = "case.toml"\n[parameters]\n'
+             '"setup.b0" = { values = [0.5, 1.5] }\n"setup.H0" = { values = [0.1, 0.3] }\n')
+    err = _bad(tmp_path, capsys, sweep)
+    # grid order m0000 (0.5, 0.1) m0001 (0.5, 0.3) m0002 (1.5, 0.1) m0003 (1.5, 0.3)
+    assert "3 of 4 member(s) invalid" in err and "m0000" not in err
+    assert "member m0001 (setup.b0=0.5 setup.H0=0.3): setup.H0:" in err  # taller than the box
+    assert "member m0002 (setup.b0=1.5 setup.H0=0.1): " in err and "setup.b0: Input should be" in err
+    err = _bad(tmp_path, capsys, '[sweep]\nbase = "case.toml"\n[parameters]\n'
+               '"grid.nx" = { range = [16, 32], n = 2 }\n')  # floats for an integer
+    assert "member m0000 (grid.nx=16): " in err and "grid.nx: Input should be a valid integer" in err
+    err = _bad(tmp_path, capsys, '[sweep]\nbase = "case.toml"\n[parameters]\n'
+               '"setup.bo" = { values = [0.5] }\n')
+    assert "member m0000" in err and "setup.bo: unknown key" in err
+    err = _bad(tmp_path, capsys, SWEEP, case=TINY_CASE.replace("nx = 16", "nx = 0"))
+    assert "grid.nx" in err and "member m0000" in err
+
+
+def test_workers_option_errors(tmp_path, capsys):
+    assert "--workers" in _bad(tmp_path, capsys, SWEEP, "--workers", "0")
+    assert "--scheduler" in _bad(tmp_path, capsys, SWEEP, "--workers", "2",
+                                 "--scheduler", "tcp://127.0.0.1:1")
+
+
+# ------------------------------------------------------------------------------ the file format
+def test_nested_parameter_tables_equal_dotted_keys(tmp_path):
+    from granflow.cli.sweep import load_sweep
+
+    dotted, _ = load_sweep(write_sweep(tmp_path, SWEEP))
+    nested_text = ('[sweep]\nbase = "case.toml"\nmode = "zip"\n[parameters.setup]\n'
+                   'b0 = { values = [0.0, 0.5, 0.9] }\n[parameters.numerics.picard]\n'
+                   'max_sweeps = { values = [4, 4, 1] }\nfail_tol = { values = [0.5, 0.5, 1e-12] }\n')
+    nested, _ = load_sweep(write_sweep(tmp_path, nested_text))
+    assert nested.members() == dotted.members()
+    assert [o["setup.b0"] for _, o in dotted.members()] == B0
+
+
+def test_example_sweep_is_valid():
+    """examples/sweep_column.toml: the fluidised flagship over b0 in {0, 0.5, 0.9}, every member
+    a valid case (b0 = 0 with gas.law = "linear" is allowed)."""
+    import tomllib
+
+    from granflow.cli.sweep import load_sweep, validate_members
+
+    spec, base = load_sweep(ROOT / "examples" / "sweep_column.toml")
+    assert base.resolve() == (ROOT / "examples" / "column_collapse_fluidised.toml").resolve()
+    assert validate_members(spec) == 3
+    assert [o for _, o in spec.members()] == [{"setup.b0": b} for b in B0]
+    flagship = tomllib.loads(base.read_text())
+    for _, overrides in spec.members():
+        config = spec.config(overrides)
+        assert config["gas"]["law"] == flagship["gas"]["law"] == "linear"
+        assert config["setup"] == {**flagship["setup"], "b0": overrides["setup.b0"]}
+        # everything else is the flagship's (plus empty tables of defaulted sections)
+        assert {k: v for k, v in config.items() if k != "setup" and v != {}} == \
+            {k: v for k, v in flagship.items() if k != "setup"}
