@@ -4,7 +4,8 @@ Exit codes: 0 success; 1 a check or computation ran but reported failure where t
 verdict (``granflow check --strict``); 2 bad input (unknown closure, unknown or invalid parameter,
 unparsable expression), printed as one line ``granflow: error: ...`` without a traceback;
 3 an unexpected internal error (with the traceback, so it can be reported); ``granflow run`` adds
-130 for an interrupted run (see :mod:`granflow.cli.run`).
+130 for an interrupted run (see :mod:`granflow.cli.run`); ``granflow sweep`` returns 1 when a member
+failed (see :mod:`granflow.cli.sweep`).
 """
 from __future__ import annotations
 
