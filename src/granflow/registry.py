@@ -14,7 +14,7 @@ T = TypeVar("T")
 
 
 class Registry(Generic[T]):
-    """Name -> class mapping with helpful errors.
+    """Name -> part mapping (classes, or records such as cases) with helpful errors.
 
     Parameters
     ----------
@@ -30,16 +30,24 @@ class Registry(Generic[T]):
         """Class decorator registering ``cls`` under ``name`` (sets ``cls.name``)."""
 
         def deco(cls: type[T]) -> type[T]:
-            if name in self._items:
-                raise ValueError(f"{self.kind} {name!r} is already registered")
-            self._items[name] = cls
+            self.add(name, cls)
             cls.name = name  # type: ignore[attr-defined]
             return cls
 
         return deco
 
+    def add(self, name: str, item) -> None:
+        """Register ``item`` under ``name``; a name can be registered once."""
+        if name in self._items:
+            raise ValueError(f"{self.kind} {name!r} is already registered")
+        self._items[name] = item
+
+    def remove(self, name: str) -> None:
+        """Forget ``name`` (no error if absent); for parts registered by tests."""
+        self._items.pop(name, None)
+
     def get(self, name: str) -> type[T]:
-        """Return the class registered as ``name``; unknown names raise :class:`UnknownNameError`."""
+        """Return the part registered as ``name``; unknown names raise :class:`UnknownNameError`."""
         try:
             return self._items[name]
         except KeyError:

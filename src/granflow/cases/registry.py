@@ -8,11 +8,11 @@ and optional case-specific diagnostics for ``summary.json``.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from granflow.errors import UnknownNameError
+from granflow.registry import Registry
 
 if TYPE_CHECKING:  # pragma: no cover
     from granflow.config import CaseConfig, Section
@@ -59,51 +59,32 @@ class Case:
     diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] = _no_diagnostics
 
 
-class CaseRegistry:
-    """Name -> :class:`Case`."""
+class CaseRegistry(Registry[Case]):
+    """Name -> :class:`Case` (a :class:`granflow.registry.Registry` whose decorator records the
+    case's options model, summary, check and diagnostics with its setup function)."""
 
     def __init__(self) -> None:
-        self._cases: dict[str, Case] = {}
+        super().__init__("case")
 
-    def register(self, name: str, *, setup_model: type[Section], summary: str,
+    def register(self, name: str, *, setup_model: type[Section], summary: str,  # type: ignore[override]
                  check: Callable[[CaseConfig], Problems] | None = None,
                  diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] | None = None
                  ) -> Callable[[Callable[[CaseConfig], Simulation]], Callable[[CaseConfig], Simulation]]:
         """Decorator registering ``setup`` as the case ``name``."""
 
         def deco(setup: Callable[[CaseConfig], Simulation]) -> Callable[[CaseConfig], Simulation]:
-            if name in self._cases:
-                raise ValueError(f"case {name!r} is already registered")
-            self._cases[name] = Case(name, setup, setup_model, summary, check or _no_problems,
-                                     diagnostics or _no_diagnostics)
+            self.add(name, Case(name, setup, setup_model, summary, check or _no_problems,
+                                diagnostics or _no_diagnostics))
             return setup
 
         return deco
 
     def unregister(self, name: str) -> None:
         """Remove a case (for cases registered by tests)."""
-        self._cases.pop(name, None)
+        self.remove(name)
         from granflow.config import _config_model
 
         _config_model.cache_clear()
-
-    def get(self, name: str) -> Case:
-        try:
-            return self._cases[name]
-        except KeyError:
-            raise UnknownNameError(f"unknown case {name!r}; expected one of: {', '.join(self.names())}") from None
-
-    def names(self) -> list[str]:
-        return sorted(self._cases)
-
-    def __contains__(self, name: object) -> bool:
-        return name in self._cases
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.names())
-
-    def __len__(self) -> int:
-        return len(self._cases)
 
 
 CASES = CaseRegistry()
