@@ -62,7 +62,11 @@ def kinetic_energy(model, state) -> float:
 
 
 def potential_energy(model, state) -> float:
-    """``-sum_c phi rho_s (g . x_c) dV`` [J m^-1] (zero at the origin of the grid's coordinates)."""
+    """``-sum_c phi rho_s (g . x_c) dV`` [J m^-1] (zero at the origin of the grid's coordinates).
+
+    On a grid periodic in x with ``g_x != 0`` this is the energy in the current periodic frame:
+    it jumps by ``rho_s g_x Lx m`` when a volume ``m`` leaves through ``x0 + Lx`` and re-enters at
+    ``x0``; :class:`EnergyBudget` removes those jumps."""
     X, Z = model.grid.cell_coords()
     gx, gz = model.gravity
     return -model.material.rho_s * model.grid.cell_volume * float(np.sum(state.phi * (gx * X + gz * Z)))
@@ -111,7 +115,10 @@ def deposit_thickness(grid: Grid, phi, phi_max: float) -> np.ndarray:
 
 def front_position(grid: Grid, phi, phi_max: float, threshold: float) -> float:
     """Furthest x [m] (right edge of the column) where :func:`deposit_thickness` > threshold [m];
-    ``nan`` if no column qualifies (NUMERICS.md §10)."""
+    ``nan`` if no column qualifies (NUMERICS.md §10) or if the grid is periodic in x (a front
+    has no meaning there)."""
+    if grid.periodic_x:
+        return float("nan")
     h = deposit_thickness(grid, phi, phi_max)
     cols = np.flatnonzero(h > threshold)
     return float(grid.xf[cols[-1] + 1]) if cols.size else float("nan")
@@ -127,6 +134,9 @@ class EnergyBudget:
     model: object
     e_k0: float
     e_p0: float
+    """Initial potential energy [J m^-1]. Periodic in x: expressed in the current periodic frame,
+    i.e. shifted by ``rho_s g_x Lx`` times the volume that crossed the periodic face (so that
+    ``e_p - e_p0`` is the change of the unwrapped potential energy)."""
     e_k: float
     e_p: float
     rho_f: np.ndarray
@@ -167,10 +177,13 @@ class EnergyBudget:
         dV = m.grid.cell_volume
         rho_new = mom.face_density(m.ops, state.phi, m.material.rho_s, m.ambient.rho_a)
         e_p = potential_energy(m, state)
+        # periodic frame jump of E_p (docstring of potential_energy), removed from both terms
+        jump = -m.material.rho_s * m.gravity[0] * m.grid.Lx * getattr(report, "wrapped_mass", 0.0)
+        self.e_p0 -= jump
         self.numerical["backward_euler"] -= dt * report.inertia_dissipation
         self.numerical["advection"] -= dt * report.advection_power
         self.numerical["inertia_transport"] += HALF * dV * float((rho_new - self.rho_f) @ (state.vel ** 2))
-        self.numerical["gravity_transport"] += e_p - self.e_p + dt * report.gravity_power
+        self.numerical["gravity_transport"] += e_p - self.e_p + jump + dt * report.gravity_power
         self.dissipated_yield += dt * report.dissipation_yield
         self.dissipated_dilatancy += dt * report.dissipation_dilatancy
         gas = getattr(report, "gas", None)

@@ -1,4 +1,5 @@
-"""Uniform MAC (marker-and-cell) staggered grid of a closed rectangular box; wall conditions.
+"""Uniform MAC (marker-and-cell) staggered grid of a closed rectangular box, or of a layer
+periodic in x; wall conditions.
 
 Layout (NUMERICS.md §2; Harlow & Welch, Phys. Fluids 8, 2182, 1965): the domain
 ``[x0, x0 + Lx] x [z0, z0 + Lz]`` is cut into ``nx x nz`` cells of size ``dx x dz``.
@@ -22,6 +23,20 @@ The box is closed: the normal velocity vanishes on every wall, so the velocity u
 wall (no-slip or free-slip) is a :class:`VelocityBCs`; it enters the operators only through the
 shear rate at the wall nodes (:mod:`granflow.operators`). The grid knows nothing of gravity,
 cases or output.
+
+Periodic in x (``periodic_x=True``; issue 3 item 9c, steady flows on an infinite incline). The x
+direction wraps: there are no west/east walls, the cell ``i = -1`` is the cell ``nx - 1``, and the
+x-face ``nx`` (at ``x0 + Lx``) *is* the x-face 0. The full arrays keep their shapes -- u on
+``(nx + 1, nz)`` x-faces, nodes ``(nx + 1, nz + 1)`` -- with the last x-column the periodic
+IMAGE of the first (identification layout): this keeps every full-array formula of the closed box
+(``np.diff`` divergences of face fluxes, node averages) valid unchanged. The u unknowns are the nx
+distinct x-faces ``u[:-1, :]`` (shape ``(nx, nz)``, so :attr:`Grid.n_u` = ``nx nz``);
+:meth:`Grid.unpack_velocity` fills the image column ``u[-1] = u[0]``. The w unknowns are unchanged
+(interior z-faces; base and top are walls). Node quantities live on the ``(nx + 1)`` node columns
+with columns 0 and nx carrying identical values; a node's control volume is split equally
+between it and its image (weight 1/2 each in x, :mod:`granflow.operators`), so every node sum
+counts each physical node once. The west/east entries of :class:`VelocityBCs` have no wall to
+act on and must stay at their default (:mod:`granflow.operators` rejects a ``no_slip`` there).
 """
 from __future__ import annotations
 
@@ -138,6 +153,8 @@ class Grid:
         Box length and height [m] (> 0, finite).
     x0, z0 : float, optional
         Coordinates of the bottom-left corner [m]. Default 0.
+    periodic_x : bool, optional
+        Wrap the x direction (period ``Lx``; module docstring). Default False (closed box).
 
     Raises
     ------
@@ -156,6 +173,8 @@ class Grid:
     (0.5, 0.5, 10)
     >>> g.xc
     array([0.25, 0.75, 1.25, 1.75])
+    >>> Grid(nx=4, nz=2, Lx=2.0, Lz=1.0, periodic_x=True).n_unknowns   # 4 x 2 u + 4 x 1 w
+    12
     """
 
     nx: int
@@ -164,6 +183,7 @@ class Grid:
     Lz: float
     x0: float = 0.0
     z0: float = 0.0
+    periodic_x: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "nx", _check_count("nx", self.nx))
@@ -172,6 +192,9 @@ class Grid:
         object.__setattr__(self, "Lz", _check_real("Lz", self.Lz, positive=True))
         object.__setattr__(self, "x0", _check_real("x0", self.x0, positive=False))
         object.__setattr__(self, "z0", _check_real("z0", self.z0, positive=False))
+        if not isinstance(self.periodic_x, (bool, np.bool_)):
+            raise GranflowInputError(f"Grid: periodic_x must be a bool, got {self.periodic_x!r}")
+        object.__setattr__(self, "periodic_x", bool(self.periodic_x))
 
     # --- spacings ---------------------------------------------------------------------------
     @property
@@ -202,7 +225,8 @@ class Grid:
 
     @cached_property
     def xf(self) -> np.ndarray:
-        """x coordinates of x-faces and nodes, shape ``(nx + 1,)`` [m] (walls included)."""
+        """x coordinates of x-faces and nodes, shape ``(nx + 1,)`` [m] (walls included; periodic:
+        the last is the image of the first)."""
         return _readonly(self.x0 + np.arange(self.nx + 1) * self.dx)
 
     @cached_property
@@ -259,9 +283,20 @@ class Grid:
         return (self.nx + 1) * (self.nz + 1)
 
     @property
+    def n_xfaces(self) -> int:
+        """Number of x-face columns carrying u unknowns: ``nx - 1`` (interior), ``nx`` periodic."""
+        return self.nx if self.periodic_x else self.nx - 1
+
+    @property
+    def u_columns(self) -> slice:
+        """Columns of a full u array ``(nx + 1, nz)`` that are unknowns: ``1:-1`` (closed box) or
+        ``:-1`` (periodic; column nx is the image of column 0)."""
+        return slice(0, -1) if self.periodic_x else slice(1, -1)
+
+    @property
     def n_u(self) -> int:
-        """Number of interior x-faces (u unknowns), ``(nx - 1) * nz``."""
-        return (self.nx - 1) * self.nz
+        """Number of u unknowns, ``(nx - 1) * nz`` (interior x-faces) or ``nx * nz`` (periodic)."""
+        return self.n_xfaces * self.nz
 
     @property
     def n_w(self) -> int:
@@ -298,7 +333,8 @@ class Grid:
         -------
         ndarray, shape ``(n_unknowns,)``
             ``[u[1:-1, :].ravel(), w[:, 1:-1].ravel()]``. Wall (normal) values are discarded:
-            the closed box imposes zero normal velocity.
+            the closed box imposes zero normal velocity. Periodic in x: ``u[:-1, :]`` (the image
+            column ``u[-1]`` is discarded).
         """
         u = np.asarray(u, dtype=float)
         w = np.asarray(w, dtype=float)
@@ -310,7 +346,7 @@ class Grid:
             raise GranflowInputError(
                 f"pack_velocity: w must have shape {self.zface_shape}, got {w.shape}"
             )
-        return np.concatenate([u[1:-1, :].ravel(), w[:, 1:-1].ravel()])
+        return np.concatenate([u[self.u_columns, :].ravel(), w[:, 1:-1].ravel()])
 
     def unpack_velocity(self, vel) -> tuple[np.ndarray, np.ndarray]:
         """Full face arrays ``(u, w)`` from the unknown vector, zero normal velocity on the walls.
@@ -323,6 +359,7 @@ class Grid:
         Returns
         -------
         u : ndarray, shape ``(nx + 1, nz)``
+            Zero on the west/east walls; periodic in x: ``u[-1] = u[0]``.
         w : ndarray, shape ``(nx, nz + 1)``
         """
         vel = np.asarray(vel, dtype=float)
@@ -332,6 +369,8 @@ class Grid:
             )
         u = np.zeros(self.xface_shape)
         w = np.zeros(self.zface_shape)
-        u[1:-1, :] = vel[self.u_slice].reshape(self.nx - 1, self.nz)
+        u[self.u_columns, :] = vel[self.u_slice].reshape(self.n_xfaces, self.nz)
+        if self.periodic_x:
+            u[-1, :] = u[0, :]
         w[:, 1:-1] = vel[self.w_slice].reshape(self.nx, self.nz - 1)
         return u, w

@@ -47,6 +47,11 @@ evaluate the closure at the local packing ``phi_loc`` = max of phi over the ``(2
 neighbourhood (the partial-cell compaction pump fix of NUMERICS.md §7.1). The closure is always
 evaluated at phi clipped to ``[PHI_FLOOR, phi_max]``. Nothing here is closure-specific.
 
+Periodic in x (``grid.periodic_x``, :mod:`granflow.grid`): the operators, the transport, the
+momentum advection, the gas block and the phi_loc neighbourhood all wrap in x; with a tilted
+gravity this is an infinite incline (steady uniform flows exist, issue 3 item 9c). The step
+reports the solid volume carried through the periodic face (:attr:`StepReport.wrapped_mass`).
+
 The dry model keeps ``state.p_f`` untouched (zero). The fluidised model stores ``p_f^{n+1}``
 (zero in the ambient of t^n) and reports the gas energy terms
 (:class:`granflow.physics.coupling.GasPowers`) in :attr:`StepReport.gas`.
@@ -172,6 +177,10 @@ class StepReport:
     """Wall time per phase [s]: 'assembly', 'solve', 'transport'."""
     gas: GasPowers | None = None
     """Gas energy terms of the step (None for the dry model)."""
+    wrapped_mass: float = 0.0
+    """Periodic grid: solid volume per unit width [m^2] carried in +x through the periodic
+    x-face 0 by the transport of the step (0 for a closed box); the energy budget uses it to
+    follow the potential energy across the period."""
 
     @property
     def failed(self) -> bool:
@@ -200,7 +209,8 @@ class Model:
         Any registered closure (:func:`granflow.rheology.make_closure`); its ``material`` gives
         rho_s, phi_max, d and the inertial-number convention c_I.
     gravity : (float, float)
-        ``(g_x, g_z)`` [m s^-2]. Default (0, -9.81); tilt it to model a slope.
+        ``(g_x, g_z)`` [m s^-2]. Default (0, -9.81); tilt it to model a slope. On a grid periodic
+        in x, ``g = g (sin theta, -cos theta)`` is an infinite incline of angle theta.
     bcs : VelocityBCs, optional
         Wall conditions (default no-slip base, free-slip sides and top).
     eps : float
@@ -299,9 +309,10 @@ class Model:
         out = phi
         if self.interface_packing:
             size = 2 * INTERFACE_RADIUS + 1
+            mode = ("wrap", "nearest") if self.grid.periodic_x else "nearest"
             ambient = phi < self.ambient.phi_c
-            near = maximum_filter(ambient, size=size, mode="nearest") & ~ambient
-            out = np.where(near, maximum_filter(phi, size=size, mode="nearest"), phi)
+            near = maximum_filter(ambient, size=size, mode=mode) & ~ambient
+            out = np.where(near, maximum_filter(phi, size=size, mode=mode), phi)
         return np.clip(out, PHI_FLOOR, self.material.phi_max).ravel()
 
     def lithostatic_pressure(self, phi) -> np.ndarray:
@@ -497,7 +508,9 @@ class Model:
         cfl = cfl_number(g, u_k, dt)
         if cfl > POSITIVITY_CFL:
             return self._failed(dt, f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps, tim)
-        phi_new = advect(g, phi, u_k, dt).phi
+        moved = advect(g, phi, u_k, dt)
+        phi_new = moved.phi
+        wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
         if not np.all(np.isfinite(phi_new)):
             return self._failed(dt, "non-finite phi after transport", sweeps, tim)
         phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, dV)
@@ -526,7 +539,7 @@ class Model:
             added_mass=bounds.added_mass, max_phi_before_clip=bounds.max_before,
             min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
             dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
-            gravity_power=grav_pow, timings=tim, gas=gas_powers)
+            gravity_power=grav_pow, timings=tim, gas=gas_powers, wrapped_mass=wrapped)
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:

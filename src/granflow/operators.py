@@ -35,6 +35,17 @@ equation is ``-V u``. The half weight at wall nodes reproduces the classical gho
 for a u row next to a no-slip base, ``(V u) = eta (3 u_0 - u_1)/dz^2`` in the z part, which
 vanishes for a linear (Couette) profile ``u = gamma z``.
 
+Periodic in x (``grid.periodic_x``, layout in :mod:`granflow.grid`). The x blocks of the
+Kronecker products are replaced by their circulant versions (:func:`periodic_x_blocks`): the
+face difference and the cell-to-face mean wrap (x-face 0 lies between cells nx - 1 and 0), the
+tangential difference ``dw/dx`` at the node columns 0 and nx (one physical node and its image) is
+``(w[0] - w[nx-1])/dx`` on both, ``du/dz`` at node column nx reads the u of x-face 0. Node weights
+keep the value 1/2 on the columns 0 and nx: each physical node of that column is counted twice at
+half weight, so ``D`` and ``V`` are unchanged in form, and the shear rate at a base node is that
+of a wall node in z only (no corners). ``grad = -div.T`` still holds exactly; it is now the
+periodic centred gradient in x. West/east wall conditions do not exist: a ``no_slip`` value
+there is rejected.
+
 References
 ----------
 F.H. Harlow, J.E. Welch, Phys. Fluids 8, 2182 (1965) -- MAC layout.
@@ -105,9 +116,82 @@ def _cell_to_all_nodes(n: int) -> sp.csr_matrix:
 
 
 def _node_weights_1d(n: int) -> np.ndarray:
+    """Wall nodes 1/2; periodic: a node and its image 1/2 each (same array)."""
     wgt = np.ones(n + 1)
     wgt[[0, -1]] = WALL_NODE_WEIGHT
     return wgt
+
+
+# --- periodic 1-D blocks (x-face k is between cells k-1 and k, indices mod n) -------------------
+def _periodic_face_to_cell_diff(n: int, h: float) -> sp.csr_matrix:
+    """(n x n): ``(f[i+1] - f[i])/h`` with ``f[n] = f[0]``."""
+    i = np.arange(n)
+    return sp.csr_matrix((np.r_[-np.ones(n), np.ones(n)] / h, (np.r_[i, i], np.r_[i, (i + 1) % n])),
+                         shape=(n, n))
+
+
+def _periodic_tangential_diff(n: int, h: float) -> sp.csr_matrix:
+    """((n+1) x n): ``(v[k] - v[k-1])/h`` at the n+1 node columns (indices mod n)."""
+    k = np.arange(n + 1)
+    return sp.csr_matrix((np.r_[np.ones(n + 1), -np.ones(n + 1)] / h,
+                          (np.r_[k, k], np.r_[k % n, (k - 1) % n])), shape=(n + 1, n))
+
+
+def _periodic_faces_to_all(n: int) -> sp.csr_matrix:
+    """((n+1) x n): the n face values on the n+1 columns (the last is the image of the first)."""
+    k = np.arange(n + 1)
+    return sp.csr_matrix((np.ones(n + 1), (k, k % n)), shape=(n + 1, n))
+
+
+def _periodic_cell_to_faces(n: int) -> sp.csr_matrix:
+    """(n x n): mean of the cells k-1 and k either side of face k."""
+    i = np.arange(n)
+    return sp.csr_matrix((np.full(2 * n, 0.5), (np.r_[i, i], np.r_[(i - 1) % n, i])), shape=(n, n))
+
+
+def _periodic_cell_to_nodes(n: int) -> sp.csr_matrix:
+    """((n+1) x n): mean of the cells k-1 and k either side of node column k."""
+    k = np.arange(n + 1)
+    return sp.csr_matrix((np.full(2 * (n + 1), 0.5), (np.r_[k, k], np.r_[(k - 1) % n, k % n])),
+                         shape=(n + 1, n))
+
+
+@dataclass(frozen=True)
+class AxisBlocks:
+    """The 1-D blocks of one direction, from which :meth:`Operators.build` takes Kronecker products.
+
+    Attributes
+    ----------
+    diff : (n_cells_1d, n_faces_1d)
+        Difference of face unknowns across each cell, divided by h.
+    tangential : (n_nodes_1d, n_cells_1d)
+        Derivative at the nodes of a tangential field held at cell positions (ghosts or wrap).
+    faces_to_nodes : (n_nodes_1d, n_faces_1d)
+        Face unknowns placed on the node positions (zero on walls, image when periodic).
+    cell_to_faces : (n_faces_1d, n_cells_1d)
+        Mean of the two cells either side of each face unknown.
+    cell_to_nodes : (n_nodes_1d, n_cells_1d)
+        Mean of the neighbouring cells of each node position.
+    """
+
+    diff: sp.csr_matrix
+    tangential: sp.csr_matrix
+    faces_to_nodes: sp.csr_matrix
+    cell_to_faces: sp.csr_matrix
+    cell_to_nodes: sp.csr_matrix
+
+
+def wall_blocks(n: int, h: float, sign_low: float, sign_high: float) -> AxisBlocks:
+    """1-D blocks of a direction bounded by two walls (ghost signs of the tangential velocity)."""
+    return AxisBlocks(_face_to_cell_diff(n, h), _tangential_diff(n, h, sign_low, sign_high),
+                      _interior_to_all(n), _cell_to_interior_faces(n), _cell_to_all_nodes(n))
+
+
+def periodic_blocks(n: int, h: float) -> AxisBlocks:
+    """1-D blocks of a periodic direction (circulant; n faces, n + 1 node positions)."""
+    return AxisBlocks(_periodic_face_to_cell_diff(n, h), _periodic_tangential_diff(n, h),
+                      _periodic_faces_to_all(n), _periodic_cell_to_faces(n),
+                      _periodic_cell_to_nodes(n))
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,9 +213,10 @@ class Operators:
     en : csr_matrix, (n_nodes, n_unknowns)
         ``du/dz + dw/dx = 2 S_xz`` at nodes, wall conditions included [m^-1].
     node_weights : ndarray, (n_nodes,)
-        Control-volume fraction of each node inside the box: 1, 1/2 (wall), 1/4 (corner).
+        Control-volume fraction of each node inside the box: 1, 1/2 (wall), 1/4 (corner);
+        periodic in x, 1/2 on the node columns 0 and nx (a node and its image share one volume).
     cell_to_xface : csr_matrix, (n_u, n_cells)
-        Mean of the two cells either side of each interior x-face.
+        Mean of the two cells either side of each interior (periodic: each) x-face.
     cell_to_zface : csr_matrix, (n_w, n_cells)
         Mean of the two cells either side of each interior z-face.
     cell_to_face : csr_matrix, (n_unknowns, n_cells)
@@ -182,25 +267,34 @@ class Operators:
             )
         nx, nz, dx, dz = grid.nx, grid.nz, grid.dx, grid.dz
         ix, iz = _eye(nx), _eye(nz)
+        sign = {side: GHOST_SIGN[bcs.kind(side)] for side in Side}
+        if grid.periodic_x:
+            walls = [s.value for s in (Side.WEST, Side.EAST) if bcs.kind(s) is not VelocityBC.FREE_SLIP]
+            if walls:
+                raise GranflowInputError(
+                    f"Operators.build: the grid is periodic in x, it has no {' or '.join(walls)} wall; "
+                    f"leave VelocityBCs.{walls[0]} at its default"
+                )
+            bx = periodic_blocks(nx, dx)
+        else:
+            bx = wall_blocks(nx, dx, sign[Side.WEST], sign[Side.EAST])
+        bz = wall_blocks(nz, dz, sign[Side.BOTTOM], sign[Side.TOP])
 
-        div_u = sp.kron(_face_to_cell_diff(nx, dx), iz)      # du/dx at cells
-        div_w = sp.kron(ix, _face_to_cell_diff(nz, dz))      # dw/dz at cells
+        div_u = sp.kron(bx.diff, iz)                         # du/dx at cells
+        div_w = sp.kron(ix, bz.diff)                         # dw/dz at cells
         div = sp.hstack([div_u, div_w], format="csr")
         ec = sp.hstack([div_u, -div_w], format="csr")
 
-        sign = {side: GHOST_SIGN[bcs.kind(side)] for side in Side}
-        ddz = _tangential_diff(nz, dz, sign[Side.BOTTOM], sign[Side.TOP])
-        ddx = _tangential_diff(nx, dx, sign[Side.WEST], sign[Side.EAST])
-        du_dz = sp.kron(_interior_to_all(nx), ddz)          # du/dz at nodes
-        dw_dx = sp.kron(ddx, _interior_to_all(nz))          # dw/dx at nodes
+        du_dz = sp.kron(bx.faces_to_nodes, bz.tangential)    # du/dz at nodes
+        dw_dx = sp.kron(bx.tangential, bz.faces_to_nodes)    # dw/dx at nodes
         en = sp.hstack([du_dz, dw_dx], format="csr")
         en.eliminate_zeros()
 
         weights = np.outer(_node_weights_1d(nx), _node_weights_1d(nz)).ravel()
         weights.setflags(write=False)
 
-        c2x = sp.kron(_cell_to_interior_faces(nx), iz, format="csr")
-        c2z = sp.kron(ix, _cell_to_interior_faces(nz), format="csr")
+        c2x = sp.kron(bx.cell_to_faces, iz, format="csr")
+        c2z = sp.kron(ix, bz.cell_to_faces, format="csr")
         return cls(
             grid=grid,
             bcs=bcs,
@@ -212,7 +306,7 @@ class Operators:
             cell_to_xface=c2x,
             cell_to_zface=c2z,
             cell_to_face=sp.vstack([c2x, c2z], format="csr"),
-            cell_to_node=sp.kron(_cell_to_all_nodes(nx), _cell_to_all_nodes(nz), format="csr"),
+            cell_to_node=sp.kron(bx.cell_to_nodes, bz.cell_to_nodes, format="csr"),
             node_to_cell=sp.kron(_mean_pairs(nx), _mean_pairs(nz), format="csr"),
         )
 

@@ -126,27 +126,36 @@ def momentum_advection(ops: Operators, vel, scheme: Advection | str = Advection.
     The transverse velocity is the mean of the four surrounding staggered values. Ghost values:
     the normal velocity is odd about its wall (zero on it), the tangential velocity takes the
     wall condition's ghost (``-u`` no-slip, ``+u`` free-slip,
-    :data:`granflow.operators.GHOST_SIGN`), mirrored for the second layer.
+    :data:`granflow.operators.GHOST_SIGN`), mirrored for the second layer. Periodic in x
+    (``grid.periodic_x``): the x stencils wrap instead (two periodic ghost columns).
     """
     scheme = Advection(scheme)
     g: Grid = ops.grid
     u, w = g.unpack_velocity(vel)
     sign = {side: GHOST_SIGN[ops.bcs.kind(side)] for side in Side}
-    U, W = u[1:-1, :], w[:, 1:-1]
-    # u at interior x-faces: along x (normal, odd about the walls), along z (tangential).
-    zx = np.zeros((1, g.nz))
-    upx = _pad(U, 0, (-U[:1], zx), (zx, -U[-1:]))
+    U, W = u[g.u_columns, :], w[:, 1:-1]
+    # u at the x-face unknowns: along x (normal, odd about the walls), along z (tangential).
+    if g.periodic_x:
+        upx = _pad(U, 0, (U[-2:-1], U[-1:]), (U[:1], U[1:2]))
+        wx = np.concatenate([w[-1:], w], axis=0)   # cells i-1, i either side of x-face i
+    else:
+        zx = np.zeros((1, g.nz))
+        upx = _pad(U, 0, (-U[:1], zx), (zx, -U[-1:]))
+        wx = w
     ax = _derivative(upx, U, g.dx, 0, scheme)
     sb, st = sign[Side.BOTTOM], sign[Side.TOP]
     upz = _pad(U, 1, (sb * U[:, 1:2], sb * U[:, :1]), (st * U[:, -1:], st * U[:, -2:-1]))
-    w_at_u = QUARTER * (w[:-1, :-1] + w[:-1, 1:] + w[1:, :-1] + w[1:, 1:])
+    w_at_u = QUARTER * (wx[:-1, :-1] + wx[:-1, 1:] + wx[1:, :-1] + wx[1:, 1:])
     az = _derivative(upz, w_at_u, g.dz, 1, scheme)
     # w at interior z-faces.
     zz = np.zeros((g.nx, 1))
     wpz = _pad(W, 1, (-W[:, :1], zz), (zz, -W[:, -1:]))
     bz = _derivative(wpz, W, g.dz, 1, scheme)
-    sw, se = sign[Side.WEST], sign[Side.EAST]
-    wpx = _pad(W, 0, (sw * W[1:2, :], sw * W[:1, :]), (se * W[-1:, :], se * W[-2:-1, :]))
+    if g.periodic_x:
+        wpx = _pad(W, 0, (W[-2:-1], W[-1:]), (W[:1], W[1:2]))
+    else:
+        sw, se = sign[Side.WEST], sign[Side.EAST]
+        wpx = _pad(W, 0, (sw * W[1:2, :], sw * W[:1, :]), (se * W[-1:, :], se * W[-2:-1, :]))
     u_at_w = QUARTER * (u[:-1, :-1] + u[1:, :-1] + u[:-1, 1:] + u[1:, 1:])
     bx = _derivative(wpx, u_at_w, g.dx, 0, scheme)
     return np.concatenate([(ax + az).ravel(), (bx + bz).ravel()])

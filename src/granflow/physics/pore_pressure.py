@@ -18,7 +18,8 @@ HARMONIC mean (series resistances). The transport term is explicit, first-order 
 Boundary conditions (NUMERICS.md §8)
 -----------------------------------
 * walls and base: impermeable, zero normal Darcy flux (the wall faces carry no flux in
-  ``ops.grad``);
+  ``ops.grad``); periodic in x (``grid.periodic_x``) the x-faces all carry flux, through the
+  periodic ``ops.grad`` and ``ops.cell_to_face`` (kappa harmonic mean across the periodic face);
 * ``dirichlet`` cells (ambient / above a free surface): ``p_f = 0``; their rows become a scaled
   identity and their columns are removed, so the matrix stays symmetric. With the harmonic mean, a
   bed cell next to an ambient cell (``phi -> PHI_FLOOR``: kappa ~6e6 times that at 0.6) sees a face
@@ -281,14 +282,16 @@ def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=
 
 
 def transport_divergence(grid: Grid, ops: Operators, phi, p_f, vel) -> np.ndarray:
-    """``div((1 - phi) p_f u)`` at cells [Pa s^-1], first-order upwind, zero flux through walls.
+    """``div((1 - phi) p_f u)`` at cells [Pa s^-1], first-order upwind, zero flux through walls
+    (periodic in x: the x-face 0 takes its upwind value from cell nx - 1 or 0).
 
     ``phi`` [-], ``p_f`` [Pa]: cell fields at ``t^n``; ``vel``: velocity unknowns at ``t^n`` [m s^-1].
     """
     q = ((1.0 - _phi(grid, phi)) * _cell_field(grid, "p_f", p_f)).reshape(grid.cell_shape)
     u, w = grid.unpack_velocity(vel)
-    ui, wi = u[1:-1, :], w[:, 1:-1]
-    flux_x = ui * np.where(ui > 0.0, q[:-1, :], q[1:, :])
+    ui, wi = u[grid.u_columns, :], w[:, 1:-1]
+    q_west, q_east = (np.roll(q, 1, axis=0), q) if grid.periodic_x else (q[:-1, :], q[1:, :])
+    flux_x = ui * np.where(ui > 0.0, q_west, q_east)
     flux_z = wi * np.where(wi > 0.0, q[:, :-1], q[:, 1:])
     return ops.div @ np.concatenate([flux_x.ravel(), flux_z.ravel()])
 

@@ -13,6 +13,10 @@ and the two face values of a cell in one direction sum to twice the cell value),
 too. The upper bound ``phi <= phi_max`` is *not* a property of the transport alone (the velocity
 is divergent; [CD] Theorem th4 obtains it from the dilatancy law): it is measured, then clipped,
 and the clipped mass is reported (:func:`clip_to_bounds`, NUMERICS.md §6).
+
+Periodic in x (``grid.periodic_x``): the x stencils wrap (slopes and upwind values of the face
+between cells nx - 1 and 0), every x-face carries a flux and the image column ``fx[nx] = fx[0]``
+keeps :func:`flux_divergence` a plain difference; the mass is conserved to round-off as well.
 """
 from __future__ import annotations
 
@@ -37,9 +41,11 @@ def minmod(a, b):
     return np.where(a * b > 0.0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
 
 
-def _limited_slopes(phi: np.ndarray, axis: int) -> np.ndarray:
+def _limited_slopes(phi: np.ndarray, axis: int, periodic: bool = False) -> np.ndarray:
     """Minmod slope (per cell, in cell units) along ``axis``; zero in the first and last cells
-    (zero-gradient ghost cells at the walls)."""
+    (zero-gradient ghost cells at the walls), or wrapped if ``periodic``."""
+    if periodic:
+        return minmod(phi - np.roll(phi, 1, axis=axis), np.roll(phi, -1, axis=axis) - phi)
     d = np.diff(phi, axis=axis)
     zero = np.zeros_like(np.take(d, [0], axis=axis))
     back = np.concatenate([zero, d], axis=axis)   # phi_i - phi_{i-1}
@@ -61,18 +67,25 @@ def muscl_fluxes(grid: Grid, phi, u: np.ndarray, w: np.ndarray) -> tuple[np.ndar
     Returns
     -------
     fx : ndarray, (nx+1, nz)
-        Flux through the x-faces (zero on the walls).
+        Flux through the x-faces (zero on the walls; periodic: ``fx[nx] = fx[0]``).
     fz : ndarray, (nx, nz+1)
         Flux through the z-faces (zero on the walls).
     """
     phi = np.asarray(phi, dtype=float)
     fx = np.zeros(grid.xface_shape)
     fz = np.zeros(grid.zface_shape)
-    sx = _limited_slopes(phi, 0)
-    left = phi[:-1, :] + HALF * sx[:-1, :]   # value at face i+1/2 from cell i
-    right = phi[1:, :] - HALF * sx[1:, :]    # ... from cell i+1
-    ui = u[1:-1, :]
-    fx[1:-1, :] = np.where(ui > 0.0, ui * left, ui * right)
+    sx = _limited_slopes(phi, 0, grid.periodic_x)
+    if grid.periodic_x:  # x-face i between cells i-1 (mod nx) and i
+        left = np.roll(phi + HALF * sx, 1, axis=0)
+        right = phi - HALF * sx
+    else:
+        left = phi[:-1, :] + HALF * sx[:-1, :]   # value at face i+1/2 from cell i
+        right = phi[1:, :] - HALF * sx[1:, :]    # ... from cell i+1
+    cols = grid.u_columns
+    ui = u[cols, :]
+    fx[cols, :] = np.where(ui > 0.0, ui * left, ui * right)
+    if grid.periodic_x:
+        fx[-1, :] = fx[0, :]
     sz = _limited_slopes(phi, 1)
     below = phi[:, :-1] + HALF * sz[:, :-1]
     above = phi[:, 1:] - HALF * sz[:, 1:]
@@ -182,7 +195,8 @@ def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float) -> np.ndar
     phi = np.asarray(phi, dtype=float)
     out = advect(grid, phi, vel, dt)
     flux = grid.pack_velocity(out.flux_x, out.flux_z)
-    cx = HALF * (phi[:-1, :] + phi[1:, :])
+    cx = (HALF * (np.roll(phi, 1, axis=0) + phi) if grid.periodic_x
+          else HALF * (phi[:-1, :] + phi[1:, :]))
     cz = HALF * (phi[:, :-1] + phi[:, 1:])
     centred = np.concatenate([cx.ravel(), cz.ravel()])
     vel = np.asarray(vel, dtype=float)
