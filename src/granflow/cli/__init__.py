@@ -49,11 +49,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run_cli.cmd_list)
     run_cli.add_parsers(sub, _Parser)
+    from granflow.cli import export as export_cli
     from granflow.cli import plot as plot_cli
     from granflow.cli import sweep as sweep_cli
 
     sweep_cli.add_parser(sub)
     plot_cli.add_parser(sub)
+    export_cli.add_parser(sub)
 
     def closure_args(q: argparse.ArgumentParser) -> None:
         q.add_argument("closure", help="closure registry key (granflow list closures)")
