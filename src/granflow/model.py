@@ -512,14 +512,17 @@ class Model:
         phi_new = moved.phi
         wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
         if not np.all(np.isfinite(phi_new)):
-            return self._failed(dt, "non-finite phi after transport", sweeps, tim)
+            bad = np.unravel_index(int(np.argmax(~np.isfinite(phi_new))), phi_new.shape)
+            return self._failed(dt, f"non-finite phi after transport {_location(g, bad)}", sweeps, tim)
         phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, dV)
         tim["transport"] += time.perf_counter() - t0
         if bounds.max_before > mat.phi_max * (1.0 + self.phi_tolerance):
+            where = _location(g, np.unravel_index(int(np.argmax(phi_new)), phi_new.shape))
             return self._failed(dt, f"phi = {bounds.max_before:.4g} exceeds phi_max by more than "
-                                    f"{self.phi_tolerance:.2%}", sweeps, tim)
+                                    f"{self.phi_tolerance:.2%} {where}", sweeps, tim)
         if bounds.min_before < -mat.phi_max * self.phi_tolerance:
-            return self._failed(dt, f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance", sweeps, tim)
+            where = _location(g, np.unravel_index(int(np.argmin(phi_new)), phi_new.shape))
+            return self._failed(dt, f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance {where}", sweeps, tim)
         gas_powers = None
         if gas_sys is not None:
             t0 = time.perf_counter()
@@ -545,3 +548,9 @@ class Model:
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:
         return StepReport(status=StepStatus.FAILED, dt=dt, message=message,
                           picard_iterations=sweeps, timings=timings)
+
+
+def _location(grid, index) -> str:
+    """'at cell (i, j), x = .. m, z = .. m' for a cell index of ``grid`` (failure messages)."""
+    i, j = (int(k) for k in index)
+    return f"at cell ({i}, {j}), x = {grid.xc[i]:.4g} m, z = {grid.zc[j]:.4g} m"
