@@ -232,13 +232,13 @@ def run_member_task(run_member: MemberFunction, config: dict[str, Any],
         return STATUS_FAILED, record
 
 
-def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+def flatten_scalars(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     """Scalar leaves of nested dicts, keys joined with dots (lists are left out)."""
     flat: dict[str, Any] = {}
     for k, v in data.items():
         key = f"{prefix}{k}"
         if isinstance(v, Mapping):
-            flat.update(_flatten(v, key + KEY_SEP))
+            flat.update(flatten_scalars(v, key + KEY_SEP))
         elif v is None or isinstance(v, (bool, int, float, str)):
             flat[key] = v
     return flat
@@ -328,7 +328,7 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         rows[member_id] = row
         if (mdir / SUMMARY_FILE).is_file():
             summary = json.loads((mdir / SUMMARY_FILE).read_text())
-            row.update(status=STATUS_OK, cached=True, summary=_flatten(summary))
+            row.update(status=STATUS_OK, cached=True, summary=flatten_scalars(summary))
             continue
         mdir.mkdir(exist_ok=True)
         config = spec.config(overrides)
@@ -355,7 +355,7 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
                               "traceback": traceback.format_exc()}
                     write_json_atomic(out / mid / ERROR_FILE, result)
                 if status == STATUS_OK:
-                    rows[mid].update(status=status, summary=_flatten(result))
+                    rows[mid].update(status=status, summary=flatten_scalars(result))
                 else:
                     rows[mid].update(status=status, summary={}, error=result["error"])
         finally:

@@ -23,6 +23,7 @@ from typing import Any
 
 from granflow.config import CaseConfig, load_case
 from granflow.errors import GranflowInputError
+from granflow.sweep import flatten_scalars
 
 RUN_SUBDIR = "run"
 """Sub-directory of a member directory holding the run's own output."""
@@ -32,8 +33,6 @@ EXCLUDED_SECTIONS = ("units", "files", "closure")
 """Summary entries left out of the member's scalars: units and file names are the same for every
 member, and the closure description repeats the configuration (its swept values are override
 columns of the sweep table)."""
-KEY_SEP = "."
-"""Separator of nested summary keys in the flattened scalars."""
 STATUS_COMPLETED = "completed"
 """``status`` of the summary of a run that reached its stop time (:class:`RunStatus.COMPLETED`)."""
 
@@ -56,16 +55,8 @@ def validate_member(config: Mapping[str, Any]) -> CaseConfig:
 def summary_scalars(summary: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     """Scalar leaves (numbers, strings, booleans, None) of a run summary, nested keys dotted;
     lists and the :data:`EXCLUDED_SECTIONS` are left out."""
-    out: dict[str, Any] = {}
-    for key, value in summary.items():
-        if not prefix and key in EXCLUDED_SECTIONS:
-            continue
-        name = f"{prefix}{key}"
-        if isinstance(value, Mapping):
-            out.update(summary_scalars(value, name + KEY_SEP))
-        elif value is None or isinstance(value, (bool, int, float, str)):
-            out[name] = value
-    return out
+    kept = {k: v for k, v in summary.items() if prefix or k not in EXCLUDED_SECTIONS}
+    return flatten_scalars(kept, prefix)
 
 
 def write_case_file(config: Mapping[str, Any], path: Path) -> Path:
