@@ -8,7 +8,7 @@ import pytest
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
-from granflow.model import Model
+from granflow.model import AUTO_AMG_UNKNOWNS, Model
 from granflow.rheology import make_closure
 from granflow.simulation import Simulation
 
@@ -45,3 +45,40 @@ def test_unknown_linear_solver_is_rejected():
     g = Grid(nx=4, nz=3, Lx=1.0, Lz=1.0)
     with pytest.raises(GranflowInputError, match="nope"):
         Model(g, make_closure("mu_i"), linear_solver="nope")
+
+
+def test_amg_path_reports_krylov_iterations():
+    sim = run("amg", None)
+    assert sim.totals.linear_iterations >= sim.totals.picard_iterations  # >= 1 Krylov step per solve
+    assert run("direct", None).totals.linear_iterations == 0
+
+
+@pytest.mark.parametrize(("nx", "nz", "expected"), [(40, 15, "direct"), (120, 60, "amg")])
+def test_auto_picks_the_solver_by_size(nx, nz, expected):
+    g = Grid(nx=nx, nz=nz, Lx=0.4, Lz=0.15)
+    unknowns = g.n_unknowns + g.n_cells
+    assert (unknowns >= AUTO_AMG_UNKNOWNS) == (expected == "amg")
+    assert Model(g, make_closure("mu_i"), linear_solver="auto").linear_solver_name == expected
+
+
+def test_case_file_selects_the_linear_solver_and_periodic_grid():
+    from granflow.cases.common import make_model
+    from granflow.config import CaseConfig
+
+    cfg = CaseConfig.from_dict({"case": {"name": "static_layer"}, "grid": {"nx": 8, "nz": 4, "periodic_x": True},
+                                "numerics": {"linear_solver": "amg"}})
+    model = make_model(cfg)
+    assert model.linear_solver_name == "amg" and model.grid.periodic_x
+    # a tilted periodic layer (an infinite incline) starts to flow: AMG and LU agree on the first step
+    g = model.grid
+    phi = np.where(g.cell_coords()[1] < 0.05, PHI_MAX, 0.0)
+    states = []
+    for solver in ("amg", "direct"):
+        m = Model(g, make_closure("mu_i"), gravity=(9.81 * np.sin(0.5), -9.81 * np.cos(0.5)), linear_solver=solver)
+        state = m.initial_state(phi)
+        assert not m.advance(state, 1e-3).failed
+        states.append(state)
+    assert np.abs(states[1].vel).max() > 1e-4
+    np.testing.assert_allclose(states[0].vel, states[1].vel, rtol=0, atol=1e-5 * np.abs(states[1].vel).max())
+    with pytest.raises(GranflowInputError, match="numerics.linear_solver"):
+        CaseConfig.from_dict({"case": {"name": "static_layer"}, "numerics": {"linear_solver": "lu"}})

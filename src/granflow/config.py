@@ -53,6 +53,7 @@ from granflow.materials import Material
 from granflow.model import (
     DEFAULT_DELTA_P,
     DEFAULT_EPS,
+    AUTO_AMG_UNKNOWNS,
     DEFAULT_PHI_TOLERANCE,
     AmbientParams,
     PicardParams,
@@ -122,6 +123,8 @@ class GridSection(Section):
     nz: int = Field(15, ge=MIN_CELLS, description="number of cells along z [-]")
     Lx: float = Field(0.4, gt=0, description="box length [m]")
     Lz: float = Field(0.15, gt=0, description="box height [m]")
+    periodic_x: bool = Field(False, description="periodic in x (an infinite layer; the west and east "
+                             "walls are then ignored) [-]")
 
     @model_validator(mode="after")
     def _size(self) -> GridSection:
@@ -182,6 +185,9 @@ class NumericsSection(Section):
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
     phi_tolerance: float = Field(DEFAULT_PHI_TOLERANCE, gt=0, description="relative overshoot of "
                                  "phi_max (before clipping) that fails a step [-]")
+    linear_solver: Literal["auto", "direct", "amg"] = Field(
+        "auto", description='linear solver of each Picard sweep: "direct" (sparse LU), "amg" '
+        f'(FGMRES + block AMG, ~O(N)) or "auto" (amg from {AUTO_AMG_UNKNOWNS} unknowns up) [-]')
     picard: PicardSection = Field(default_factory=PicardSection, description="Picard loop [-]")
     ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
 

@@ -96,6 +96,21 @@ VISCOUS_ADDITION_FACTOR = 0.5
 """The closure's viscous stress eta_visc S is 2 (eta_visc/2) S in the tau = 2 eta S convention."""
 DEFAULT_PHI_TOLERANCE = 0.05
 """Relative overshoot of phi_max (before clipping) that fails a step."""
+AUTO_AMG_UNKNOWNS = 20_000
+"""``linear_solver="auto"`` uses the AMG path from this many saddle-point unknowns (velocities +
+pressures) up; below it SciPy's sparse LU is faster (benchmarks/linear_solvers.py: AMG 15-28
+iterations from 40 x 15 to 160 x 60 cells, cost ~N^1.04 against ~N^1.46 for the LU)."""
+
+
+class LinearSolverChoice(str, Enum):
+    """Linear solver of the Picard sweeps (:class:`Model` ``linear_solver``)."""
+
+    AUTO = "auto"
+    """``direct`` below :data:`AUTO_AMG_UNKNOWNS` unknowns, ``amg`` above."""
+    DIRECT = "direct"
+    """SciPy's sparse LU (SuperLU): exact, the reference; cost grows ~N^1.5."""
+    AMG = "amg"
+    """FGMRES preconditioned by the block AMG of :mod:`granflow.solvers.saddle`: ~O(N)."""
 
 
 class AmbientParams(Params):
@@ -178,6 +193,8 @@ class StepReport:
     """Wall time per phase [s]: 'assembly', 'solve', 'transport'."""
     gas: GasPowers | None = None
     """Gas energy terms of the step (None for the dry model)."""
+    linear_iterations: int = 0
+    """Krylov iterations summed over the Picard sweeps (0 with the direct solver)."""
     wrapped_mass: float = 0.0
     """Periodic grid: solid volume per unit width [m^2] carried in +x through the periodic
     x-face 0 by the transport of the step (0 for a closed box); the energy budget uses it to
@@ -243,6 +260,10 @@ class Model:
     open_top : bool
         ``p_f = 0`` on the top wall face (the velocity top stays closed). Default False
         (impermeable top; the ambient cells carry ``p_f = 0`` in any case). Needs ``gas``.
+    linear_solver : LinearSolverChoice or str
+        ``"direct"`` (default; sparse LU), ``"amg"`` (FGMRES + block AMG, ~O(N)) or ``"auto"``
+        (``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up). The chosen one is
+        :attr:`linear_solver_name`.
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -254,7 +275,7 @@ class Model:
                  gravity_blend_velocity: float | None = None,
                  advection: mom.Advection | str = mom.Advection.UPWIND,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
-                 linear_solver: str = "direct") -> None:
+                 linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -292,9 +313,17 @@ class Model:
             raise GranflowInputError("Model: gravity_blend_velocity must be > 0")
         # "direct": SciPy's sparse LU (the reference, fastest below ~1e4 unknowns); "amg": FGMRES with
         # the block AMG preconditioner of granflow.solvers.saddle (pays above ~2e4 unknowns).
-        self.linear_solver_name = str(linear_solver)
-        self.linear_solver = (None if self.linear_solver_name == "direct" else make_linear_solver(
-            self.linear_solver_name, **({"grid": grid} if self.linear_solver_name == "amg" else {})))
+        try:
+            choice = LinearSolverChoice(linear_solver)
+        except ValueError:
+            raise GranflowInputError(f"Model: unknown linear_solver {linear_solver!r}; expected one of "
+                                     f"{[c.value for c in LinearSolverChoice]}") from None
+        if choice is LinearSolverChoice.AUTO:
+            choice = (LinearSolverChoice.AMG if grid.n_unknowns + grid.n_cells >= AUTO_AMG_UNKNOWNS
+                      else LinearSolverChoice.DIRECT)
+        self.linear_solver_name = choice.value
+        self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
+                              else make_linear_solver(choice.value, grid=grid))
         self.gas = None
         self.gas_coupling: GasCoupling | None = None
         if gas is None:
@@ -450,7 +479,7 @@ class Model:
         free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
         n = g.n_unknowns
         floor = np.sqrt(n) * self.eps * g.Lz
-        changes, rel, sweeps, n_negz = 0, np.inf, 0, 0
+        changes, rel, sweeps, n_negz, krylov = 0, np.inf, 0, 0, 0
         converged = False
         tim["assembly"] += time.perf_counter() - t0
         for sweeps in range(1, self.picard.max_sweeps + 1):
@@ -476,8 +505,9 @@ class Model:
                     else:
                         m_act = int(np.count_nonzero(act))
                         x0 = np.concatenate([u_k, p_k[act], np.zeros(K.shape[0] - n - m_act)])
-                        sol, _ = self.linear_solver.solve(
+                        sol, info = self.linear_solver.solve(
                             K, rhs, x0=x0, hints=SaddleHints(mass=rho_f / dt + drag, viscosity=coef.eta_c[act]))
+                        krylov += int(info.iterations)
                 except Exception as err:  # singular matrix, SuperLU failure, Krylov non-convergence
                     tim["solve"] += time.perf_counter() - t1
                     return self._failed(dt, f"linear solve failed: {err}", sweeps, tim)
@@ -555,7 +585,8 @@ class Model:
             added_mass=bounds.added_mass, max_phi_before_clip=bounds.max_before,
             min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
             dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
-            gravity_power=grav_pow, timings=tim, gas=gas_powers, wrapped_mass=wrapped)
+            gravity_power=grav_pow, timings=tim, gas=gas_powers, wrapped_mass=wrapped,
+            linear_iterations=krylov)
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:

@@ -114,6 +114,8 @@ class RunTotals:
     max_phi_before_clip: float = -math.inf
     min_phi_before_clip: float = math.inf
     picard_iterations: int = 0
+    linear_iterations: int = 0
+    """Krylov iterations of the linear solves (0 with the direct solver)."""
     not_converged: int = 0
     """Accepted steps whose Picard loop stopped at ``max_sweeps``."""
     max_negative_Z: int = 0
@@ -125,6 +127,7 @@ class RunTotals:
         self.max_phi_before_clip = max(self.max_phi_before_clip, report.max_phi_before_clip)
         self.min_phi_before_clip = min(self.min_phi_before_clip, report.min_phi_before_clip)
         self.picard_iterations += report.picard_iterations
+        self.linear_iterations += report.linear_iterations
         self.not_converged += int(report.status.value == "not_converged")
         self.max_negative_Z = max(self.max_negative_Z, report.n_negative_Z)
 
@@ -367,7 +370,9 @@ class Simulation:
                     budget[f.name] = {k: float(scalars[f"{key}.{k}"]) for k in value}
                 elif isinstance(value, (int, float)):
                     budget[f.name] = type(value)(scalars[key])
-            totals = RunTotals(**{f.name: scalars[f"totals.{f.name}"] for f in fields(RunTotals)})
+            # a total added after the checkpoint was written restarts from its default
+            totals = RunTotals(**{f.name: type(f.default)(scalars.get(f"totals.{f.name}", f.default))
+                                  for f in fields(RunTotals)})
             n_rejected = int(scalars["n_rejected"])
         except KeyError as err:
             raise GranflowInputError(f"checkpoint: missing entry {err}") from None

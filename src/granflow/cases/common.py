@@ -31,7 +31,7 @@ def model_supports(option: str) -> bool:
 
 def make_grid(config: CaseConfig) -> Grid:
     g = config.grid
-    return Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz)
+    return Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz, periodic_x=g.periodic_x)
 
 
 def gas_options(config: CaseConfig) -> dict[str, Any]:
@@ -78,7 +78,7 @@ def make_model(config: CaseConfig) -> Model:
                  eps=n.eps, ambient=n.ambient, picard=n.picard, delta_p=n.delta_p,
                  interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
                  consistent_gravity=n.consistent_gravity, advection=n.advection,
-                 **gas_options(config))
+                 linear_solver=n.linear_solver, **gas_options(config))
 
 
 def initial_state(model: Model, phi, b0: float = 0.0) -> State:

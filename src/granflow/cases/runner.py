@@ -386,6 +386,8 @@ class CaseRun:
                        "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
                        "max_cells_negative_Z": tot.max_negative_Z},
+            "linear_solver": {"name": sim.model.linear_solver_name,
+                              "krylov_iterations": tot.linear_iterations},
             "closure": closure.describe(),
             "resolution": {"nx": g.nx, "nz": g.nz, "dx_m": g.dx, "dz_m": g.dz},
             "case_diagnostics": self.case.diagnostics(sim, cfg),

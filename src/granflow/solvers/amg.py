@@ -75,8 +75,9 @@ def velocity_near_nullspace(grid: Grid) -> np.ndarray:
     """
     Xu, Zu = grid.xface_coords()
     Xw, Zw = grid.zface_coords()
-    x = np.concatenate([Xu[1:-1].ravel(), Xw[:, 1:-1].ravel()])
-    z = np.concatenate([Zu[1:-1].ravel(), Zw[:, 1:-1].ravel()])
+    cols = grid.u_columns  # interior x-faces, or all but the periodic image
+    x = np.concatenate([Xu[cols].ravel(), Xw[:, 1:-1].ravel()])
+    z = np.concatenate([Zu[cols].ravel(), Zw[:, 1:-1].ravel()])
     length = max(grid.Lx, grid.Lz)
     x = (x - (grid.x0 + 0.5 * grid.Lx)) / length
     z = (z - (grid.z0 + 0.5 * grid.Lz)) / length
