@@ -6,6 +6,9 @@
 ['column_collapse', 'static_layer']
 """
 from granflow.cases import column_collapse, static_layer  # noqa: F401  (register)
+from granflow.cases import defluidisation_column  # noqa: F401  (register)
+from granflow.cases import sheared_layer  # noqa: F401  (register)
+from granflow.cases import inclined_layer  # noqa: F401  (register)
 from granflow.cases.registry import CASES, Case, CaseRegistry
 
 __all__ = ["CASES", "Case", "CaseRegistry"]
