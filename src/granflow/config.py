@@ -55,6 +55,7 @@ from granflow.model import (
     DEFAULT_EPS,
     AUTO_AMG_UNKNOWNS,
     DEFAULT_PHI_TOLERANCE,
+    INTERFACE_RADIUS,
     AmbientParams,
     PicardParams,
 )
@@ -183,6 +184,13 @@ class NumericsSection(Section):
     advection: Literal["upwind", "muscl"] = Field("upwind", description="momentum advection scheme [-]")
     interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
+    gravity_blend_velocity: float | None = Field(
+        None, gt=0, description="faces slower than this keep (a blend towards) the centred gravity "
+        "weight (default: eps Lz) [m s^-1]")
+    isochoric_interface: int = Field(
+        0, ge=0, le=INTERFACE_RADIUS, description="dense cells within this many cells of the "
+        "ambient are isochoric (div u = 0, or free with p = 0) instead of following the "
+        "closure's dilatancy law; 0 = off [cells]")
     phi_tolerance: float = Field(DEFAULT_PHI_TOLERANCE, gt=0, description="relative overshoot of "
                                  "phi_max (before clipping) that fails a step [-]")
     linear_solver: Literal["auto", "direct", "amg"] = Field(
@@ -214,8 +222,9 @@ class OutputSection(Section):
         description=f"fields written at cell centres, any of {list(OUTPUT_FIELDS)} [-]")
     front_threshold: float | None = Field(None, gt=0, description="deposit thickness defining the "
                                           "front (default: one cell height) [m]")
-    rest_speed: float | None = Field(None, gt=0, description="granular speed below which the flow "
-                                     "is at rest, for t_rest (default: 10 eps Lz) [m s^-1]")
+    rest_speed: float | None = Field(None, gt=0, description="rms granular speed (phi-weighted over "
+                                     "the granular faces) below which the flow is at rest, for t_rest "
+                                     "(default: 10 eps Lz) [m s^-1]")
     log_interval: float = Field(10.0, gt=0, description="wall time between progress log lines "
                                 "when not on a terminal [s]")
     figures: bool = Field(True, description="write snapshot and front-position figures (PNG) at the "

@@ -30,6 +30,8 @@ Step n -> n+1 (:meth:`Model.advance`):
      ``G sqrt(p) ~ G p / sqrt(p_e)`` (Picard, NUMERICS.md §5.1) and
      ``2|S| A(I(p)) ~ 2|S| A(I_e) - |S| I_e dA/dI (p - p_e)/p_e`` (Newton on the I-dependence,
      clipped to keep ``C >= 0``); ``fac = 0`` (infinitely stiff) gives ``div u = 0``;
+   * with ``isochoric_interface = r > 0`` the dense cells within ``r`` cells of the ambient
+     get ``b = C = 0`` (isochoric, or free);
    * primal-dual active set for ``p >= 0`` (NUMERICS.md §5.4), every dense cell starting active:
      active cells with ``p < 0`` become free (``p = 0``, not an unknown), free cells with
      ``Div u < b`` are reactivated; converged when the relative velocity increment is below
@@ -123,12 +125,23 @@ class AmbientParams(Params):
     rho_a : float
         Ambient inertia [kg m^-3] (no weight). Default 2.
     eta_a : float
-        Ambient viscosity [Pa s], also a background viscosity of dense cells. Default 1e-3.
+        Ambient viscosity [Pa s]. Default 1e-3.
+    eta_b : float, optional
+        Background viscosity added to the dense cells [Pa s]; default (None) ``eta_a``, so that
+        one number sets both (the v1 behaviour). Set it apart from ``eta_a`` to damp the grains
+        that numerical diffusion leaves in the ambient without changing the dense rheology.
     """
 
     phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")
     rho_a: float = Field(2.0, gt=0, description="ambient density [kg m^-3]")
     eta_a: float = Field(1.0e-3, gt=0, description="ambient viscosity [Pa s]")
+    eta_b: float | None = Field(None, gt=0, description="background viscosity of the dense cells "
+                                "(default: eta_a) [Pa s]")
+
+    @property
+    def background_viscosity(self) -> float:
+        """``eta_b``, or ``eta_a`` when not given [Pa s]."""
+        return self.eta_a if self.eta_b is None else self.eta_b
 
 
 class PicardParams(Params):
@@ -260,6 +273,12 @@ class Model:
     open_top : bool
         ``p_f = 0`` on the top wall face (the velocity top stays closed). Default False
         (impermeable top; the ambient cells carry ``p_f = 0`` in any case). Needs ``gas``.
+    isochoric_interface : int
+        Dense cells within this many cells of the ambient (0 = off, the default; at most
+        :data:`INTERFACE_RADIUS`) drop the closure's dilatancy row: ``div u = 0`` while ``p > 0``,
+        free (``p = 0``) otherwise -- partial cells at the free surface are then not taken for
+        loose material that dilates under shear or compacts (docs/solver.md, "Free surface").
+        The yield stress there is unchanged.
     linear_solver : LinearSolverChoice or str
         ``"direct"`` (default; sparse LU), ``"amg"`` (FGMRES + block AMG, ~O(N)) or ``"auto"``
         (``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up). The chosen one is
@@ -275,7 +294,8 @@ class Model:
                  gravity_blend_velocity: float | None = None,
                  advection: mom.Advection | str = mom.Advection.UPWIND,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
-                 linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT) -> None:
+                 linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
+                 isochoric_interface: int = 0) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -300,6 +320,11 @@ class Model:
                 f"Model: ambient.phi_c = {self.ambient.phi_c} must be below phi_max = {self.material.phi_max}")
         self.delta_p = float(delta_p)
         self.interface_packing = bool(interface_packing)
+        if (isinstance(isochoric_interface, bool) or not isinstance(isochoric_interface, (int, np.integer))
+                or not 0 <= isochoric_interface <= INTERFACE_RADIUS):
+            raise GranflowInputError(f"Model: isochoric_interface must be an integer in [0, {INTERFACE_RADIUS}] "
+                                     f"(cells), got {isochoric_interface!r}")
+        self.isochoric_interface = int(isochoric_interface)
         self.phi_tolerance = float(phi_tolerance)
         self.consistent_gravity = bool(consistent_gravity)
         try:
@@ -338,17 +363,25 @@ class Model:
         """Flat mask of the granular (non-ambient) cells, ``phi >= phi_c``."""
         return np.ravel(phi) >= self.ambient.phi_c
 
+    def _filter_mode(self):
+        return ("wrap", "nearest") if self.grid.periodic_x else "nearest"
+
+    def interface_band(self, phi, radius: int = INTERFACE_RADIUS) -> np.ndarray:
+        """Mask (nx, nz) of the dense cells within ``radius`` cells (a (2r+1)^2 neighbourhood)
+        of an ambient cell."""
+        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        ambient = phi < self.ambient.phi_c
+        return maximum_filter(ambient, size=2 * radius + 1, mode=self._filter_mode()) & ~ambient
+
     def effective_packing(self, phi) -> np.ndarray:
         """Flat phi at which the closure is evaluated: phi_loc near the ambient (NUMERICS.md
         §7.1), clipped to ``[PHI_FLOOR, phi_max]``."""
         phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
         out = phi
         if self.interface_packing:
-            size = 2 * INTERFACE_RADIUS + 1
-            mode = ("wrap", "nearest") if self.grid.periodic_x else "nearest"
-            ambient = phi < self.ambient.phi_c
-            near = maximum_filter(ambient, size=size, mode=mode) & ~ambient
-            out = np.where(near, maximum_filter(phi, size=size, mode=mode), phi)
+            near = self.interface_band(phi)
+            out = np.where(near, maximum_filter(phi, size=2 * INTERFACE_RADIUS + 1,
+                                                mode=self._filter_mode()), phi)
         return np.clip(out, PHI_FLOOR, self.material.phi_max).ravel()
 
     def lithostatic_pressure(self, phi) -> np.ndarray:
@@ -440,7 +473,7 @@ class Model:
             C = np.where(live, fac * (c.compaction_coefficient(phi_e) / np.sqrt(p_e) + dshear / p_e), 0.0)
         bad = {name: int(np.count_nonzero(dense & ~np.isfinite(v))) for name, v in
                (("Z", Z), ("b", b), ("C", C))}
-        eta = np.where(dense, eta, 0.0) + self.ambient.eta_a
+        eta = np.where(dense, eta + self.ambient.background_viscosity, self.ambient.eta_a)
         return Coefficients(eta_c=eta, b=b, C=C, n_negative_Z=int(np.count_nonzero(dense & (Z < 0))),
                             nonfinite={k: v for k, v in bad.items() if v})
 
@@ -460,6 +493,8 @@ class Model:
         phi = state.phi
         dense = self.dense(phi)
         phi_e = self.effective_packing(phi)
+        iso = (self.interface_band(phi, self.isochoric_interface).ravel()
+               if self.isochoric_interface else None)
         rho_f = mom.face_density(ops, phi, mat.rho_s, self.ambient.rho_a)
         adv = mom.momentum_advection(ops, state.vel, self.advection)
         f_g, drag = self.gravity_split(phi, state.vel, dt)
@@ -486,6 +521,9 @@ class Model:
             t0 = time.perf_counter()
             S = ops.strain_rate_norm(u_k)
             coef = self.coefficients(phi_e, p_k, S, dt, dense)
+            if iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
+                coef.b[iso] = 0.0
+                coef.C[iso] = 0.0
             if coef.nonfinite:
                 return self._failed(dt, f"closure {self.closure.name!r} gave non-finite values in "
                                         f"dense cells: {coef.nonfinite}", sweeps, tim)

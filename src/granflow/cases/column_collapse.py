@@ -12,10 +12,17 @@ Dry by default. An initially fluidised column -- pore pressure ``p_f = b0`` time
 pressure, typically with an expanded packing ``phi0 < phi_max`` -- needs ``[gas] law = "linear"``
 or ``"nonlinear"``; with a :class:`granflow.model.Model` that has no ``gas`` option this is
 reported, at load time, as not yet supported.
+
+Prepared like the experiments (``setup.preparation = "injection"``; Roche et al. 2002, Roche
+2012): the column is first fluidised by gas injected through the reservoir's porous base at
+``U_prep = U_prep_over_Umf * U_mf`` in a separate simulation of the reservoir alone (gate closed)
+until steady or ``prep_max_time``; its phi, p and p_f are the initial state, and the injection
+stops when the gate opens (or continues under the reservoir or the whole base,
+``setup.keep_injection``). See :mod:`granflow.cases.preparation`.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import Field
 
@@ -32,9 +39,22 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
+from granflow.cases.preparation import (
+    DEFAULT_PREP_MAX_TIME,
+    DEFAULT_U_PREP_OVER_UMF,
+    Preparation,
+    collapse_injection,
+    model_with_injection,
+    preparation_problems,
+    prepare,
+    released_state,
+)
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import Simulation
+
+PREPARATION_ATTRIBUTE = "preparation"
+"""Attribute of the Simulation holding the preparation result (read by :func:`diagnostics`)."""
 
 
 class ColumnCollapseSetup(Section):
@@ -47,11 +67,26 @@ class ColumnCollapseSetup(Section):
                                "(default: material.phi_max) [-]")
     b0: float = Field(0.0, ge=0, le=1, description="initial pore pressure as a fraction of the "
                       "lithostatic pressure (needs [gas]) [-]")
+    preparation: Literal["none", "injection"] = Field(
+        "none", description='initial state: "none" (phi0 and b0 as given) or "injection" (the column '
+        "is first fluidised by gas injected through its base until steady, gate closed, as in the "
+        "experiments; needs [gas]) [-]")
+    U_prep_over_Umf: float | None = Field(
+        None, gt=0, description="injection: superficial gas velocity of the preparation over the "
+        f"minimum fluidisation velocity U_mf = kappa(phi0) phi0 rho_s g [-] (default "
+        f"{DEFAULT_U_PREP_OVER_UMF})")
+    prep_max_time: float | None = Field(
+        None, gt=0, description="injection: the preparation stops when steady or after this time "
+        f"[s] (default {DEFAULT_PREP_MAX_TIME})")
+    keep_injection: Literal["none", "reservoir", "base"] = Field(
+        "none", description='injection: gas supply after the gate opens: "none" (stopped, as in '
+        'the experiments), "reservoir" (U_prep through the base under x < L0) or "base" (U_prep '
+        "through the whole base) [-]")
 
 
 def check(config: CaseConfig) -> list[tuple[str, str]]:
     s = config.setup
-    out = packing_problems(config) + gas_problems(config)
+    out = packing_problems(config) + gas_problems(config) + preparation_problems(config)
     out += extent_problems(config, "setup.H0", s.H0, "z") + extent_problems(config, "setup.L0", s.L0, "x")
     if s.L0 >= config.grid.Lx:
         out.append(("setup.L0", f"{s.L0} m leaves no room to spread (grid.Lx = {config.grid.Lx} m)"))
@@ -63,10 +98,15 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
 
 
 def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
-    """Aspect ratio and normalised run-out inputs: a = H0/L0, initial mass."""
+    """Aspect ratio and normalised run-out inputs: a = H0/L0, initial mass; with an injection
+    preparation its outcome (:meth:`granflow.cases.preparation.PreparationResult.diagnostics`)."""
     s = config.setup
-    return {"H0_m": s.H0, "L0_m": s.L0, "aspect_ratio": s.H0 / s.L0, "phi0": packing(config),
-            "b0": s.b0}
+    out = {"H0_m": s.H0, "L0_m": s.L0, "aspect_ratio": s.H0 / s.L0, "phi0": packing(config),
+           "b0": s.b0, "preparation": s.preparation}
+    prep = getattr(sim, PREPARATION_ATTRIBUTE, None)
+    if prep is not None:
+        out.update(prep.diagnostics(), keep_injection=s.keep_injection)
+    return out
 
 
 @CASES.register("column_collapse", setup_model=ColumnCollapseSetup, check=check,
@@ -83,8 +123,16 @@ def setup(config: CaseConfig) -> Simulation:
     Returns
     -------
     Simulation
+        With ``setup.preparation = "injection"``, its attribute ``preparation`` is the
+        :class:`~granflow.cases.preparation.PreparationResult`.
     """
     s = config.setup
+    if s.preparation == Preparation.INJECTION:
+        prep = prepare(config)
+        model = model_with_injection(config, collapse_injection(config, prep))
+        sim = make_simulation(config, model, released_state(model, prep))
+        setattr(sim, PREPARATION_ATTRIBUTE, prep)
+        return sim
     model = make_model(config)
     g = model.grid
     phi = packing(config) * rectangle_fraction(g, 0.0, s.L0, 0.0, s.H0)

@@ -70,15 +70,29 @@ def gas_problems(config: CaseConfig) -> list[tuple[str, str]]:
     return out
 
 
-def make_model(config: CaseConfig) -> Model:
-    """The :class:`Model` of ``config``: grid, closure, gravity, walls, numerics, gas."""
+def make_model(config: CaseConfig, **overrides: Any) -> Model:
+    """The :class:`Model` of ``config``: grid, closure, gravity, walls, numerics, gas.
+
+    ``overrides`` replace the keyword arguments of :class:`Model` built from the config (e.g.
+    ``grid=`` a periodic grid, ``U_inj=`` one value per column [m s^-1]); a gas keyword
+    (``U_inj``, ``open_top``) needs a gas law in ``[gas]``.
+    """
     n, w = config.numerics, config.walls
-    bcs = VelocityBCs(west=w.west, east=w.east, bottom=w.bottom, top=w.top)
-    return Model(make_grid(config), config.make_closure(), gravity=config.gravity_vector, bcs=bcs,
-                 eps=n.eps, ambient=n.ambient, picard=n.picard, delta_p=n.delta_p,
-                 interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
-                 consistent_gravity=n.consistent_gravity, advection=n.advection,
-                 linear_solver=n.linear_solver, **gas_options(config))
+    kwargs: dict[str, Any] = dict(
+        grid=make_grid(config), closure=config.make_closure(), gravity=config.gravity_vector,
+        bcs=VelocityBCs(west=w.west, east=w.east, bottom=w.bottom, top=w.top), eps=n.eps,
+        ambient=n.ambient, picard=n.picard, delta_p=n.delta_p,
+        interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
+        consistent_gravity=n.consistent_gravity, advection=n.advection,
+        gravity_blend_velocity=n.gravity_blend_velocity, linear_solver=n.linear_solver,
+        isochoric_interface=n.isochoric_interface, **gas_options(config))
+    unknown = set(overrides) - set(inspect.signature(Model).parameters)
+    if unknown:
+        raise GranflowInputError(f"make_model: Model has no option(s) {sorted(unknown)}")
+    if config.gas.law == "none" and {INJECTION_OPTION, OPEN_TOP_OPTION} & set(overrides):
+        raise GranflowInputError('make_model: U_inj and open_top need gas.law = "linear" or "nonlinear"')
+    kwargs.update(overrides)
+    return Model(**kwargs)
 
 
 def initial_state(model: Model, phi, b0: float = 0.0) -> State:
