@@ -3,12 +3,16 @@
 
 >>> from granflow.cases import CASES
 >>> CASES.names()
-['column_collapse', 'static_layer']
+['column_collapse', 'defluidisation_column', 'inclined_layer', 'lagree_column', 'sheared_layer', 'static_layer']
 """
-from granflow.cases import column_collapse, static_layer  # noqa: F401  (register)
-from granflow.cases import defluidisation_column  # noqa: F401  (register)
-from granflow.cases import sheared_layer  # noqa: F401  (register)
-from granflow.cases import inclined_layer  # noqa: F401  (register)
+from granflow.cases import (  # noqa: F401  (each module registers its case)
+    column_collapse,
+    defluidisation_column,
+    inclined_layer,
+    lagree_column,
+    sheared_layer,
+    static_layer,
+)
 from granflow.cases.registry import CASES, Case, CaseRegistry
 
 __all__ = ["CASES", "Case", "CaseRegistry"]
