@@ -57,7 +57,7 @@ T_END = 12.0
 DT_MAX = 0.05
 RECORD = 1.0                 # s between recorded surface velocities
 OPTIONS = {"delta_p": 1e-3, "ambient": {"eta_a": 1e-4}, "interface_packing": False,
-           "gravity_blend_velocity": 0.01}
+           "gravity_blend_velocity": 0.01, "isochoric_interface": 0}  # the top cells must dilate
 STEADY_TOL = 1e-3            # relative change of u_s over the last 2 s
 
 

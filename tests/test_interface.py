@@ -59,3 +59,27 @@ def test_isochoric_band_brings_the_dry_deposit_to_rest():
 def test_isochoric_band_width_is_checked(bad):
     with pytest.raises(GranflowInputError, match="isochoric_interface"):
         Model(Grid(nx=4, nz=3, Lx=1.0, Lz=1.0), make_closure("mu_i"), isochoric_interface=bad)
+
+
+def test_run_ends_once_at_rest(tmp_path):
+    """``time.stop_at_rest``: the run ends (status completed) once the rms granular speed has
+    stayed below ``output.rest_speed`` (here 1e-2 m/s) for that long (measured: rest at
+    t = 0.425 s, end at 0.475 s instead of stop_time = 1 s)."""
+    import json
+    from pathlib import Path
+
+    from granflow.cli import main
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "column_collapse_dry.toml"
+    small = ["setup.H0=0.05", "setup.L0=0.05", "grid.Lx=0.2", "grid.Lz=0.075", "grid.nx=20",
+             "grid.nz=8", "time.stop_time=1.0", "time.stop_at_rest=0.05", "output.rest_speed=0.01"]
+    out = tmp_path / "run"
+    argv = ["run", str(example), "--out", str(out), "--quiet"]
+    for item in small:
+        argv += ["--set", item]
+    assert main(argv) == 0
+    s = json.loads((out / "summary.json").read_text())
+    print(f"\nt_rest {s['t_rest']}, t_final {s['t_final']}")
+    assert s["status"] == "completed" and s["stopped_at_rest"] is True
+    assert s["t_rest"] is not None and s["t_final"] < 1.0
+    assert s["t_final"] - s["t_rest"] == pytest.approx(0.05, abs=1.5e-3)  # one dt_max = 1e-3

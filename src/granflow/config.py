@@ -161,6 +161,9 @@ class TimeSection(Section):
     max_retries: int = Field(6, ge=0, description="dt halvings allowed for one step [-]")
     max_steps: int | None = Field(None, ge=1, description="stop after this many steps in total, "
                                   "counted from t = 0 [-] (default: no limit)")
+    stop_at_rest: float | None = Field(None, gt=0, description="end the run once the flow has been "
+                                       "at rest (t_rest, output.rest_speed) for this long [s] "
+                                       "(default: run to stop_time)")
 
 
 class PicardSection(PicardParams):
@@ -188,7 +191,7 @@ class NumericsSection(Section):
         None, gt=0, description="faces slower than this keep (a blend towards) the centred gravity "
         "weight (default: eps Lz) [m s^-1]")
     isochoric_interface: int = Field(
-        0, ge=0, le=INTERFACE_RADIUS, description="dense cells within this many cells of the "
+        1, ge=0, le=INTERFACE_RADIUS, description="dense cells within this many cells of the "
         "ambient are isochoric (div u = 0, or free with p = 0) instead of following the "
         "closure's dilatancy law; 0 = off [cells]")
     phi_tolerance: float = Field(DEFAULT_PHI_TOLERANCE, gt=0, description="relative overshoot of "

@@ -30,8 +30,11 @@ Step n -> n+1 (:meth:`Model.advance`):
      ``G sqrt(p) ~ G p / sqrt(p_e)`` (Picard, NUMERICS.md §5.1) and
      ``2|S| A(I(p)) ~ 2|S| A(I_e) - |S| I_e dA/dI (p - p_e)/p_e`` (Newton on the I-dependence,
      clipped to keep ``C >= 0``); ``fac = 0`` (infinitely stiff) gives ``div u = 0``;
-   * with ``isochoric_interface = r > 0`` the dense cells within ``r`` cells of the ambient
-     get ``b = C = 0`` (isochoric, or free);
+   * with ``isochoric_interface = r > 0`` (default 1) the dense cells within ``r`` cells of the
+     ambient get ``b = C = 0`` (isochoric, or free): partial cells at the free surface are not
+     loose material (with the closure's law there, a sheared surface cell evaluated at phi_loc
+     dilates at any pressure and a loose one compacts, and the pair drives a surface film that
+     never stops, docs/solver.md "Free surface");
    * primal-dual active set for ``p >= 0`` (NUMERICS.md §5.4), every dense cell starting active:
      active cells with ``p < 0`` become free (``p = 0``, not an unknown), free cells with
      ``Div u < b`` are reactivated; converged when the relative velocity increment is below
@@ -274,8 +277,8 @@ class Model:
         ``p_f = 0`` on the top wall face (the velocity top stays closed). Default False
         (impermeable top; the ambient cells carry ``p_f = 0`` in any case). Needs ``gas``.
     isochoric_interface : int
-        Dense cells within this many cells of the ambient (0 = off, the default; at most
-        :data:`INTERFACE_RADIUS`) drop the closure's dilatancy row: ``div u = 0`` while ``p > 0``,
+        Dense cells within this many cells of the ambient (default 1; 0 = off, the v1 scheme; at
+        most :data:`INTERFACE_RADIUS`) drop the closure's dilatancy row: ``div u = 0`` while ``p > 0``,
         free (``p = 0``) otherwise -- partial cells at the free surface are then not taken for
         loose material that dilates under shear or compacts (docs/solver.md, "Free surface").
         The yield stress there is unchanged.
@@ -295,7 +298,7 @@ class Model:
                  advection: mom.Advection | str = mom.Advection.UPWIND,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
                  linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
-                 isochoric_interface: int = 0) -> None:
+                 isochoric_interface: int = 1) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):

@@ -57,9 +57,9 @@ FLUID_LEVELS = (10, 20, 40, 80)
 DRY = {"theta_deg": 25.0, "beta": 0.0}
 FLUIDISED = {"theta_deg": 22.0, "beta": 0.15}
 OPTIONS = {"delta_p": 1e-3, "ambient": {"eta_a": 1e-4}, "interface_packing": False,
-           "gravity_blend_velocity": 0.01}
+           "gravity_blend_velocity": 0.01, "isochoric_interface": 0}  # the top cells must dilate
 DEFAULT_OPTIONS = {"delta_p": 1.0, "ambient": {"eta_a": 1e-3}, "interface_packing": True,
-                   "gravity_blend_velocity": None}
+                   "gravity_blend_velocity": None, "isochoric_interface": 0}  # the v1 defaults
 OPTIONS_LEVEL = 40
 
 

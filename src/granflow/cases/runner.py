@@ -167,6 +167,7 @@ class CaseRun:
         self.front_x: list[float] = []
         self.mass0 = dg.mass(self.grid, self.sim.state.phi)
         self.t_rest: float | None = None
+        self.stopped_at_rest = False
         self.peak_speed = 0.0
         self.wall_before = 0.0
         self._last_out_t = -np.inf
@@ -262,6 +263,10 @@ class CaseRun:
             self.t_rest = None
         elif self.t_rest is None:
             self.t_rest = sim.state.t
+        hold = self.config.time.stop_at_rest
+        if hold is not None and self.t_rest is not None and sim.state.t - self.t_rest >= hold:
+            sim.stop_time = sim.state.t  # at rest long enough: done() is now true, status completed
+            self.stopped_at_rest = True
         if self.progress is not None and sim.reports:
             t0, w0 = self._session_t0
             elapsed = time.perf_counter() - w0
@@ -383,6 +388,7 @@ class CaseRun:
                                "x_m": list(self.front_x), "final_m": x_final},
             "final_height_at_wall": float(h[0]),
             "t_rest": self.t_rest, "rest_speed": self.rest_speed, "peak_speed": self.peak_speed,
+            "stopped_at_rest": self.stopped_at_rest,
             "mass_rel_error": (mass + tot.clipped_mass - tot.added_mass - self.mass0) / self.mass0,
             "mass_change_rel": (mass - self.mass0) / self.mass0,
             "clipped_mass": tot.clipped_mass / self.mass0,
