@@ -193,6 +193,10 @@ class StepReport:
     cfl: float = float("nan")
     clipped_mass: float = 0.0
     added_mass: float = 0.0
+    limited_mass: float = 0.0
+    """Solid volume per unit width [m^2] the transport's upper-bound limiter kept in donor cells
+    (:func:`granflow.physics.transport.limit_to_upper_bound`; mass is conserved, only where it
+    goes changes)."""
     max_phi_before_clip: float = float("nan")
     min_phi_before_clip: float = float("nan")
     dissipation_yield: float = 0.0
@@ -418,7 +422,8 @@ class Model:
         """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
         face fraction of the mass flux of a step with velocity ``vel``
         (:func:`granflow.physics.transport.flux_face_fraction`), evaluated at ``vel``."""
-        phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity)
+        phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity,
+                                       self.material.phi_max)
                     if self.consistent_gravity else None)
         return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
 
@@ -445,7 +450,7 @@ class Model:
         centred = ops.cell_to_face @ phi.ravel()
         if not self.consistent_gravity:
             return rho_s * gvec * centred, np.zeros(g.n_unknowns)
-        out = advect(g, phi, vel, dt)
+        out = advect(g, phi, vel, dt, self.material.phi_max)
         flux = g.pack_velocity(out.flux_x, out.flux_z)
         moving = vel != 0.0
         upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
@@ -592,7 +597,7 @@ class Model:
         cfl = cfl_number(g, u_k, dt)
         if cfl > POSITIVITY_CFL:
             return self._failed(dt, f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps, tim)
-        moved = advect(g, phi, u_k, dt)
+        moved = advect(g, phi, u_k, dt, mat.phi_max)
         phi_new = moved.phi
         wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
         if not np.all(np.isfinite(phi_new)):
@@ -627,7 +632,7 @@ class Model:
             min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
             dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
             gravity_power=grav_pow, timings=tim, gas=gas_powers, wrapped_mass=wrapped,
-            linear_iterations=krylov)
+            linear_iterations=krylov, limited_mass=moved.held_back)
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:

@@ -111,6 +111,8 @@ class RunTotals:
     """Mass removed by clipping phi to phi_max [m^2]."""
     added_mass: float = 0.0
     """Mass added by clipping phi to 0 [m^2]."""
+    limited_mass: float = 0.0
+    """Solid volume the transport's upper-bound limiter kept in donor cells [m^2]."""
     max_phi_before_clip: float = -math.inf
     min_phi_before_clip: float = math.inf
     picard_iterations: int = 0
@@ -124,6 +126,7 @@ class RunTotals:
     def record(self, report: StepReport) -> None:
         self.clipped_mass += report.clipped_mass
         self.added_mass += report.added_mass
+        self.limited_mass += report.limited_mass
         self.max_phi_before_clip = max(self.max_phi_before_clip, report.max_phi_before_clip)
         self.min_phi_before_clip = min(self.min_phi_before_clip, report.min_phi_before_clip)
         self.picard_iterations += report.picard_iterations

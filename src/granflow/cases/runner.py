@@ -74,7 +74,7 @@ SERIES_SPECS = {
 UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
     "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
-    "clipped_mass": "1 (fraction of the initial mass)", "phi_min": "1", "phi_max": "1",
+    "clipped_mass": "1 (fraction of the initial mass)", "limited_mass": "1 (fraction of the initial mass)", "phi_min": "1", "phi_max": "1",
     "energy_residual_rel": "1 (of the released potential energy)", "energy": "J m-1",
     "wall_s": "s", "t_final": "s",
 }
@@ -393,6 +393,7 @@ class CaseRun:
             "mass_change_rel": (mass - self.mass0) / self.mass0,
             "clipped_mass": tot.clipped_mass / self.mass0,
             "added_mass": tot.added_mass / self.mass0,
+            "limited_mass": tot.limited_mass / self.mass0,
             "phi_min": float(st.phi.min()), "phi_max": float(st.phi.max()),
             "phi_max_before_clip": tot.max_phi_before_clip,
             "phi_min_before_clip": tot.min_phi_before_clip,

@@ -11,8 +11,13 @@ Bounds. With the CFL number of :func:`cfl_number` (per cell,
 convex-type update that keeps ``phi >= 0`` (a minmod face value is at most 3/2 of the cell value
 and the two face values of a cell in one direction sum to twice the cell value), hence SSP-RK2
 too. The upper bound ``phi <= phi_max`` is *not* a property of the transport alone (the velocity
-is divergent; [CD] Theorem th4 obtains it from the dilatancy law): it is measured, then clipped,
-and the clipped mass is reported (:func:`clip_to_bounds`, NUMERICS.md §6).
+is divergent; [CD] Theorem th4 obtains it from the dilatancy law). With ``phi_max`` given,
+:func:`advect` keeps it by limiting, in each forward-Euler stage, the fluxes that enter a cell the
+stage would fill above ``phi_max`` (:func:`limit_to_upper_bound`; the solid they would have carried
+stays in the donor cell, so mass is still conserved to round-off, and the amount held back is
+reported). Anything left above ``phi_max`` is measured, clipped and reported
+(:func:`clip_to_bounds`, NUMERICS.md §6). Limiting only lowers inflows, so ``phi >= 0`` still
+holds: a cell's outflow alone is at most its content at CFL <= 1/2.
 
 Periodic in x (``grid.periodic_x``): the x stencils wrap (slopes and upwind values of the face
 between cells nx - 1 and 0), every x-face carries a flux and the image column ``fx[nx] = fx[0]``
@@ -132,9 +137,62 @@ class TransportResult:
     phi: np.ndarray
     flux_x: np.ndarray
     flux_z: np.ndarray
+    held_back: float = 0.0
+    """Solid volume per unit width [m^2] that the upper-bound limiter kept in donor cells
+    (0 without ``phi_max`` or when it did not act)."""
 
 
-def advect(grid: Grid, phi, vel, dt: float) -> TransportResult:
+MAX_LIMITER_PASSES = 100
+"""Passes of :func:`limit_to_upper_bound` (each settles the cells above the bound; lowering their
+inflows can push a donor over, which the next pass settles)."""
+BOUND_RTOL = 1e-12
+"""Relative excess over ``phi_max`` that the limiter leaves alone (round-off)."""
+
+
+def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
+    """Fluxes of one forward-Euler stage ``phi - dt div F`` limited so that no cell exceeds
+    ``phi_max`` (a flux-limiting step in the spirit of Zalesak's FCT, with the bound as the only
+    constraint).
+
+    Each pass scales every flux *entering* a cell that would end above ``phi_max`` by
+    ``r = 1 - excess / inflow`` (that cell then ends at ``phi_max``); this lowers the donors'
+    outflow, so the passes repeat until no cell is above the bound (``phi <= phi_max`` at the
+    start of the stage is assumed). Fluxes only shrink, so it terminates.
+
+    Returns
+    -------
+    fx, fz : ndarray
+        Limited fluxes (same shapes; periodic image column kept).
+    held_back : float
+        ``dt sum |F - F_lim| * face length`` [m^2 per unit width].
+    """
+    fx0, fz0 = fx, fz
+    fx, fz = fx.copy(), fz.copy()
+    cap = phi_max * (1.0 + BOUND_RTOL)
+    for _ in range(MAX_LIMITER_PASSES):
+        excess = phi - dt * flux_divergence(grid, fx, fz) - phi_max
+        if not np.any(excess > cap - phi_max):
+            break
+        cx, cz = dt / grid.dx, dt / grid.dz
+        inflow = (cx * (np.maximum(fx[:-1, :], 0.0) + np.maximum(-fx[1:, :], 0.0))
+                  + cz * (np.maximum(fz[:, :-1], 0.0) + np.maximum(-fz[:, 1:], 0.0)))
+        over = excess > cap - phi_max
+        enough = over & (inflow > excess)  # else every inflow goes (r = 0)
+        ratio = np.divide(excess, inflow, out=np.ones_like(excess), where=enough)
+        r = np.where(over, 1.0 - ratio, 1.0)
+        if grid.periodic_x:  # x-face i between cells i-1 (mod nx) and i; fx[nx] is the image
+            fx[:-1, :] *= np.where(fx[:-1, :] > 0.0, r, np.roll(r, 1, axis=0))
+            fx[-1, :] = fx[0, :]
+        else:
+            fx[1:-1, :] *= np.where(fx[1:-1, :] > 0.0, r[1:, :], r[:-1, :])
+        fz[:, 1:-1] *= np.where(fz[:, 1:-1] > 0.0, r[:, 1:], r[:, :-1])
+    ncol = grid.nx if grid.periodic_x else grid.nx + 1
+    held = dt * (grid.dz * float(np.sum(np.abs(fx0[:ncol] - fx[:ncol])))
+                 + grid.dx * float(np.sum(np.abs(fz0 - fz))))
+    return fx, fz, held
+
+
+def advect(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) -> TransportResult:
     """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b).
 
     Parameters
@@ -146,6 +204,9 @@ def advect(grid: Grid, phi, vel, dt: float) -> TransportResult:
         Face velocities, held fixed over the step [m s^-1].
     dt : float
         Time step [s]; keep :func:`cfl_number` <= 1/2 for positivity.
+    phi_max : float, optional
+        Upper bound kept by :func:`limit_to_upper_bound` in both stages (the result of SSP-RK2 is
+        a convex combination of the two bounded stages); None: no limiting.
 
     Returns
     -------
@@ -165,13 +226,22 @@ def advect(grid: Grid, phi, vel, dt: float) -> TransportResult:
     phi = np.asarray(phi, dtype=float)
     u, w = face_velocities(grid, vel)
     fx0, fz0 = muscl_fluxes(grid, phi, u, w)
+    held = 0.0
+    if phi_max is not None:
+        fx0, fz0, h0 = limit_to_upper_bound(grid, phi, fx0, fz0, dt, phi_max)
+        held += HALF * h0
     phi1 = phi - dt * flux_divergence(grid, fx0, fz0)
     fx1, fz1 = muscl_fluxes(grid, phi1, u, w)
+    if phi_max is not None:
+        fx1, fz1, h1 = limit_to_upper_bound(grid, phi1, fx1, fz1, dt, phi_max)
+        held += HALF * h1
     fx, fz = HALF * (fx0 + fx1), HALF * (fz0 + fz1)
-    return TransportResult(phi=phi - dt * flux_divergence(grid, fx, fz), flux_x=fx, flux_z=fz)
+    return TransportResult(phi=phi - dt * flux_divergence(grid, fx, fz), flux_x=fx, flux_z=fz,
+                           held_back=held)
 
 
-def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float) -> np.ndarray:
+def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float,
+                       phi_max: float | None = None) -> np.ndarray:
     """Solid fraction seen by the mass flux of :func:`advect` at the velocity unknowns [-].
 
     ``phi_f = F_f / u_f`` with ``F`` the time-averaged SSP-RK2 flux of a step with velocity ``vel``
@@ -191,9 +261,11 @@ def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float) -> np.ndar
         Time step [s].
     u_ref : float
         Blending velocity [m s^-1] (> 0).
+    phi_max : float, optional
+        Upper bound of the transport (:func:`advect`).
     """
     phi = np.asarray(phi, dtype=float)
-    out = advect(grid, phi, vel, dt)
+    out = advect(grid, phi, vel, dt, phi_max)
     flux = grid.pack_velocity(out.flux_x, out.flux_z)
     cx = (HALF * (np.roll(phi, 1, axis=0) + phi) if grid.periodic_x
           else HALF * (phi[:-1, :] + phi[1:, :]))
