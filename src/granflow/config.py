@@ -225,6 +225,9 @@ class OutputSection(Section):
         description=f"fields written at cell centres, any of {list(OUTPUT_FIELDS)} [-]")
     front_threshold: float | None = Field(None, gt=0, description="deposit thickness defining the "
                                           "front (default: one cell height) [m]")
+    probes_x: list[float] = Field(default_factory=list, description="x of basal probes [m]: p_f and p of "
+                                  "the bottom cell containing each x, in output.nc at every record "
+                                  "(probe_p_f, probe_p) [-]")
     rest_speed: float | None = Field(None, gt=0, description="rms granular speed (phi-weighted over "
                                      "the granular faces) below which the flow is at rest, for t_rest "
                                      "(default: 10 eps Lz) [m s^-1]")
@@ -484,6 +487,15 @@ def _registry_errors(data: Any, material: Material) -> list[str]:
     return errors
 
 
+def _common_problems(cfg: CaseConfig) -> list[tuple[str, str]]:
+    """Consistency of options of the common sections with each other (any case)."""
+    out = []
+    bad = [x for x in cfg.output.probes_x if not 0.0 <= x <= cfg.grid.Lx]
+    if bad:
+        out.append(("output.probes_x", f"{bad} outside the box [0, grid.Lx = {cfg.grid.Lx}] m"))
+    return out
+
+
 def _validate(data: dict[str, Any]) -> CaseConfig:
     from granflow.cases import CASES
 
@@ -509,7 +521,7 @@ def _validate(data: dict[str, Any]) -> CaseConfig:
         errors += _registry_errors(data, material)
     if errors:
         raise GranflowInputError("; ".join(dict.fromkeys(errors)))
-    errors = [f"{path}: {msg}" for path, msg in CASES.get(cfg.case.name).check(cfg)]
+    errors = [f"{path}: {msg}" for path, msg in CASES.get(cfg.case.name).check(cfg) + _common_problems(cfg)]
     if errors:
         raise GranflowInputError("; ".join(errors))
     return cfg

@@ -109,8 +109,9 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
 
 def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     """Figures of a ``granflow run`` output file: ``snapshots.png`` (phi, and p_f when non-zero,
-    at the first, middle and last records, with the granular speed) and ``front.png`` (front
-    position and kinetic energy against time)."""
+    at the first, middle and last records, with the granular speed), ``front.png`` (front
+    position and kinetic energy against time) and, with basal probes, ``probes.png`` (basal p_f
+    and p against time)."""
     import xarray as xr
 
     plt = _pyplot()
@@ -165,7 +166,21 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     front_path = outdir / "front.png"
     fig.savefig(front_path, dpi=100)
     plt.close(fig)
-    return [snap_path, front_path]
+    paths = [snap_path, front_path]
+    if "probe_p_f" in ds:
+        fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+        for k, xp in enumerate(ds["x_probe"].values):
+            line, = ax.plot(t, ds["probe_p_f"].values[:, k], "-", label=f"p_f, x = {xp:.3g} m")
+            ax.plot(t, ds["probe_p"].values[:, k], "--", color=line.get_color(), label=f"p, x = {xp:.3g} m")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("basal pressure [Pa]")
+        ax.legend(fontsize="small")
+        ax.set_title("basal probes: pore pressure p_f (solid), granular pressure p (dashed)", fontsize="small")
+        probes_path = outdir / "probes.png"
+        fig.savefig(probes_path, dpi=100)
+        plt.close(fig)
+        paths.append(probes_path)
+    return paths
 
 
 # --------------------------------------------------------------------------------------------

@@ -66,6 +66,12 @@ FIELD_SPECS = {
     "p_f": ("Pa", "pore-gas over-pressure (zero in the dry model)"),
     "S": ("s-1", "norm of the deviatoric strain rate |S|, |S|^2 = S:S/2"),
 }
+PROBE_DIM = "x_probe"
+PROBE_SPECS = {
+    "probe_p_f": ("Pa", "pore-gas pressure p_f of the bottom cell at each basal probe"),
+    "probe_p": ("Pa", "granular pressure p of the bottom cell at each basal probe"),
+}
+"""Time series at the basal probes (``output.probes_x``)."""
 SERIES_SPECS = {
     "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
     "x_front": ("m", ("front position: right edge of the furthest column with deposit thickness "
@@ -160,6 +166,8 @@ class CaseRun:
         self.phi_max = self.sim.model.material.phi_max
         out = config.output
         self.threshold = out.front_threshold if out.front_threshold is not None else self.grid.dz
+        self.probe_cells = np.clip(np.floor((np.asarray(out.probes_x, dtype=float) - self.grid.x0) / self.grid.dx),
+                                   0, self.grid.nx - 1).astype(int)  # the cell containing each x
         self.rest_speed = (out.rest_speed if out.rest_speed is not None
                            else REST_SPEED_FACTOR * config.numerics.eps * self.grid.Lz)
         self.progress = progress
@@ -201,6 +209,11 @@ class CaseRun:
             variables[name] = VariableSpec(("time", "x", "z"), units, long_name, attrs=attrs)
         for name, (units, long_name) in SERIES_SPECS.items():
             variables[name] = VariableSpec(("time",), units, long_name)
+        if self.probe_cells.size:
+            coords[PROBE_DIM] = (self.grid.xc[self.probe_cells], {
+                "units": "m", "long_name": "x of the cell centre of each basal probe"})
+            for name, (units, long_name) in PROBE_SPECS.items():
+                variables[name] = VariableSpec(("time", PROBE_DIM), units, long_name)
         attrs = {"case": self.config.case.name, "config_effective": self.config.to_toml(),
                  "overrides": " ".join(self.config.overrides), "phi_max": self.phi_max,
                  "front_threshold_m": self.threshold, "closure": self.config.closure.name}
@@ -235,8 +248,12 @@ class CaseRun:
         if t <= self._last_out_t:  # already written (restart at an output time)
             return
         x_f = self.front()
+        probes = {}
+        if self.probe_cells.size:
+            st = sim.state
+            probes = {"probe_p_f": st.p_f[self.probe_cells, 0], "probe_p": st.p[self.probe_cells, 0]}
         self.writer.append(t, {**self._fields(), "kinetic_energy": np.float64(sim.budget.e_k),
-                               "x_front": np.float64(x_f)})
+                               "x_front": np.float64(x_f), **probes})
         self._last_out_t = t
         self.front_t.append(t)
         self.front_x.append(x_f)
