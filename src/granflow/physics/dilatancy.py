@@ -69,6 +69,8 @@ def _backward_euler_scalar(closure, phi_n: float, p: float, S: float, dt: float)
     lo, hi = sorted((phi_n, phi_eq))
 
     def g(x: float) -> float:
+        if x == phi_eq:  # R(phi_eq) = 0 exactly; its round-off (~1e-13) times a huge dt could
+            return phi_eq - phi_n  # exceed |phi_n - phi_eq| and hide the sign change
         with np.errstate(all="ignore"):
             return x - phi_n + dt * phi_n * float(closure.div_rate(x, p, S))
 
