@@ -377,3 +377,26 @@ def test_validation_script_smoke():
     for profile in PROFILES:
         assert res[profile.value]["err"] < 5e-3          # README: 3.4e-3 (lith.), 3.7e-3 (unif.)
     assert abs(res["lithostatic"]["half_life"] - 0.4854) < 5e-3   # README: 0.4884
+
+
+def test_one_gas_law_enum_for_solver_theory_and_case_files():
+    """The solver, the dispersion analysis and the case files share granflow.gas.GasLaw; "none"
+    is the dry model for Model and an error for the gas block."""
+    from granflow.config import CaseConfig
+    from granflow.errors import GranflowInputError
+    from granflow.gas import GasLaw
+    from granflow.grid import Grid
+    from granflow.model import Model
+    from granflow.operators import Operators
+    from granflow.physics import pore_pressure
+    from granflow.physics.coupling import GasCoupling
+    from granflow.rheology import make_closure
+    from granflow.theory import dispersion
+
+    assert pore_pressure.GasLaw is GasLaw and dispersion.GasLaw is GasLaw
+    cfg_laws = CaseConfig.model_fields["gas"].annotation.model_fields["law"].annotation.__args__
+    assert set(cfg_laws) == {law.value for law in GasLaw}
+    g = Grid(nx=4, nz=3, Lx=1.0, Lz=1.0)
+    assert Model(g, make_closure("mu_i"), gas="none").gas is None
+    with pytest.raises(GranflowInputError, match="none"):
+        GasCoupling(g, Operators.build(g), make_closure("mu_i").material, "none")

@@ -273,7 +273,7 @@ class Model:
         Momentum advection scheme, ``"upwind"`` (default, v1) or ``"muscl"``.
     gas : GasLaw or str, optional
         Pore-gas law (paper eq. syst2b ``"linear"`` or eq. pressure-diffusion-nonlinear
-        ``"nonlinear"``); None (default) is the dry model.
+        ``"nonlinear"``); None or ``"none"`` (default None) is the dry model.
     U_inj : float or array_like (nx,)
         Superficial gas velocity [m s^-1] injected through the porous base (Neumann
         ``-kappa dp_f/dz = U_inj``); default 0 (impermeable base). Needs ``gas``.
@@ -358,7 +358,7 @@ class Model:
                               else make_linear_solver(choice.value, grid=grid))
         self.gas = None
         self.gas_coupling: GasCoupling | None = None
-        if gas is None:
+        if gas is None or gas == GasLaw.NONE:
             if open_top or np.any(np.asarray(U_inj, dtype=float) != 0.0):
                 raise GranflowInputError("Model: U_inj and open_top need a gas law (gas=...)")
         else:

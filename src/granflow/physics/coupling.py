@@ -167,6 +167,8 @@ class GasCoupling:
         except ValueError:
             raise GranflowInputError(f"unknown gas law {gas!r}; expected one of "
                                      f"{[k.value for k in GasLaw]}") from None
+        if self.gas is GasLaw.NONE:
+            raise GranflowInputError('GasCoupling needs a gas law ("linear" or "nonlinear"), got "none"')
         u = np.asarray(injection, dtype=float)
         u = np.full(grid.nx, float(u)) if u.ndim == 0 else u
         if u.shape != (grid.nx,) or not np.all(np.isfinite(u)):

@@ -60,6 +60,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from granflow.gas import GasLaw  # noqa: F401  (re-exported: the solver's gas laws)
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.materials import Material
@@ -70,15 +71,6 @@ PHI_FLOOR = 1e-3
 
 GHOST_FACE_FACTOR = 2.0
 """Top Dirichlet face: distance cell centre -> face is dz/2, so the flux is 2 K p_top / dz."""
-
-
-class GasLaw(Enum):
-    """Which pore-pressure equation is assembled."""
-
-    LINEAR = "linear"
-    """Paper eq. syst2b / pressure-diffusion: diffusion ``p_atm div(kappa grad p_f)``."""
-    NONLINEAR = "nonlinear"
-    """Paper eq. pressure-diffusion-nonlinear: ``div(kappa (p_atm + p_f) grad p_f)``, lagged."""
 
 
 class GasEnergy(Enum):

@@ -50,12 +50,13 @@ lambda = -c k^2, c = p_atm kappa(phi0)/(1 - phi0)).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum, IntEnum
+from enum import IntEnum
 
 import numpy as np
 import scipy.linalg
 from scipy.optimize import minimize_scalar
 
+from granflow.gas import GasLaw
 from granflow.errors import GranflowInputError
 from granflow.rheology.base import Closure
 
@@ -74,17 +75,6 @@ THETA_XTOL = 1e-10
 #: Default k range [1/m] of :func:`most_unstable`: 10**K_LOG10_MIN up to 2 pi / d.
 K_LOG10_MIN = 0.0
 DEFAULT_K_POINTS = 61
-
-
-class GasLaw(str, Enum):
-    """Pore-gas equation used in the linearisation."""
-
-    NONE = "none"
-    """Dry model, p_f = 0 (no gas unknown)."""
-    LINEAR = "linear"
-    """Paper eq. syst2b: right-hand side p_atm div(kappa grad p_f)."""
-    NONLINEAR = "nonlinear"
-    """Eq. pressure-diffusion-nonlinear: right-hand side div(kappa (p_atm + p_f) grad p_f)."""
 
 
 @dataclass(frozen=True)
