@@ -28,11 +28,10 @@ reference (with Drucker-Prager a steady uniform flow exists only at tan(theta) =
 
 Numerics. The Bagnold match needs four non-default surface options (tests/test_inclined_plane.py,
 validation/inclined_plane/README.md, each measured): ``numerics.delta_p = 1e-3`` Pa,
-``numerics.ambient.eta_a = 1e-4`` Pa s, ``numerics.interface_packing = false`` and a gravity blend
-velocity of 0.01 m/s. The last is not a ``[numerics]`` option of the case files yet, so this case
-takes it as ``setup.gravity_blend_velocity`` (default: the Model's ``eps Lz``) and builds its Model
-itself (:func:`make_inclined_model`, :func:`granflow.cases.common.make_model` plus that keyword
-and the periodic grid).
+``numerics.ambient.eta_a = 1e-4`` Pa s, ``numerics.interface_packing = false`` and
+``numerics.gravity_blend_velocity = 0.01`` m/s (and ``numerics.isochoric_interface = 0``: the top
+cells must dilate). The Model is :func:`granflow.cases.common.make_model` on the periodic grid
+(:func:`make_inclined_model`).
 
 Diagnostics: the surface velocity ``u_s`` (the u of the top row of x-faces, mean over x: the
 stress-free ambient moves with the surface) against Bagnold's, the profile error, phi against
@@ -92,9 +91,6 @@ class InclinedLayerSetup(Section):
     start: Literal["rest", "bagnold"] = Field(
         "rest", description='initial velocity: "rest" or "bagnold" (the exact steady profile; '
         'closure mu_i only) [-]')
-    gravity_blend_velocity: float | None = Field(
-        None, gt=0, description="gravity blend velocity of the energy-consistent gravity (Model "
-        "option; default eps Lz; the Bagnold match needs 0.01) [m s^-1]")
 
 
 @dataclass(frozen=True)
@@ -223,11 +219,11 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
 
 def make_inclined_model(config: CaseConfig) -> Model:
     """The Model of :func:`granflow.cases.common.make_model` on the periodic grid, with the base
-    injection of ``setup.beta`` and ``setup.gravity_blend_velocity``."""
+    injection of ``setup.beta``."""
     g, s = config.grid, config.setup
     grid = Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz, periodic_x=True)
     extra = {"U_inj": injection_velocity(config)} if s.beta > 0 else {}
-    return make_model(config, grid=grid, gravity_blend_velocity=s.gravity_blend_velocity, **extra)
+    return make_model(config, grid=grid, **extra)
 
 
 def surface_velocity(sim: Simulation) -> float:
