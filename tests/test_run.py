@@ -102,11 +102,13 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
     with xr.open_dataset(out / "output.nc") as ds:
         edges = np.linspace(0.0, 0.4, 17)
         thr = s["front_position"]["threshold_m"]
-        assert thr == pytest.approx(0.15 / 6, rel=1e-14)  # default: one cell height
+        assert thr == pytest.approx(0.05 * 0.1, rel=1e-14)  # column_collapse default: 0.05 H0
+        assert ds.attrs["front_threshold_m"] == thr
         fronts = [front_from_phi(ds["phi"][i].values, edges, 0.025, thr) for i in range(ds.sizes["time"])]
         assert s["front_position"]["x_m"] == pytest.approx(fronts, abs=1e-12)
         assert s["runout_m"] == pytest.approx(fronts[-1] - fronts[0], abs=1e-12)
         assert float(ds.granflow.runout(threshold=thr)) == pytest.approx(s["runout_m"], abs=1e-12)
+        assert float(ds.granflow.runout()) == pytest.approx(s["runout_m"], abs=1e-12)  # the run's threshold
         h_wall = float(ds["phi"][-1, 0].sum()) * 0.025 / PHI_MAX
         assert s["final_height_at_wall"] == pytest.approx(h_wall, rel=1e-12)
     assert (out / "checkpoints" / "checkpoint_00000050.npz").is_file()

@@ -224,7 +224,7 @@ class OutputSection(Section):
         default_factory=lambda: list(OUTPUT_FIELDS), min_length=1,
         description=f"fields written at cell centres, any of {list(OUTPUT_FIELDS)} [-]")
     front_threshold: float | None = Field(None, gt=0, description="deposit thickness defining the "
-                                          "front (default: one cell height) [m]")
+                                          "front (default: the case's, e.g. 0.05 H0 for column_collapse, else one cell height) [m]")
     probes_x: list[float] = Field(default_factory=list, description="x of basal probes [m]: p_f and p of "
                                   "the bottom cell containing each x, in output.nc at every record "
                                   "(probe_p_f, probe_p) [-]")

@@ -49,6 +49,10 @@ class Case:
         ``check(config) -> [(key path, message), ...]``: consistency conditions across sections.
     diagnostics : callable
         ``diagnostics(simulation, config) -> dict``: case-specific entries of ``summary.json``.
+    front_threshold : callable, optional
+        ``front_threshold(config) -> float``: the deposit thickness [m] that defines the front when
+        ``output.front_threshold`` is not set -- a physical length, so that the run-out means the
+        same at every resolution. None: one cell height.
     """
 
     name: str
@@ -57,6 +61,7 @@ class Case:
     summary: str
     check: Callable[[CaseConfig], Problems] = _no_problems
     diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] = _no_diagnostics
+    front_threshold: Callable[[CaseConfig], float] | None = None
 
 
 class CaseRegistry(Registry[Case]):
@@ -68,13 +73,14 @@ class CaseRegistry(Registry[Case]):
 
     def register(self, name: str, *, setup_model: type[Section], summary: str,  # type: ignore[override]
                  check: Callable[[CaseConfig], Problems] | None = None,
-                 diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] | None = None
+                 diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] | None = None,
+                 front_threshold: Callable[[CaseConfig], float] | None = None,
                  ) -> Callable[[Callable[[CaseConfig], Simulation]], Callable[[CaseConfig], Simulation]]:
         """Decorator registering ``setup`` as the case ``name``."""
 
         def deco(setup: Callable[[CaseConfig], Simulation]) -> Callable[[CaseConfig], Simulation]:
             self.add(name, Case(name, setup, setup_model, summary, check or _no_problems,
-                                diagnostics or _no_diagnostics))
+                                diagnostics or _no_diagnostics, front_threshold))
             return setup
 
         return deco

@@ -165,7 +165,12 @@ class CaseRun:
         self.grid = self.sim.model.grid
         self.phi_max = self.sim.model.material.phi_max
         out = config.output
-        self.threshold = out.front_threshold if out.front_threshold is not None else self.grid.dz
+        if out.front_threshold is not None:
+            self.threshold = out.front_threshold
+        elif self.case.front_threshold is not None:
+            self.threshold = float(self.case.front_threshold(config))
+        else:
+            self.threshold = self.grid.dz
         self.probe_cells = np.clip(np.floor((np.asarray(out.probes_x, dtype=float) - self.grid.x0) / self.grid.dx),
                                    0, self.grid.nx - 1).astype(int)  # the cell containing each x
         self.rest_speed = (out.rest_speed if out.rest_speed is not None

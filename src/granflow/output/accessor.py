@@ -3,7 +3,8 @@
 Importing :mod:`granflow.output` registers the accessor. The diagnostics follow NUMERICS.md §10:
 the deposit thickness is h(x) = sum_j phi(x, z_j) dz_j / phi_max (the height the grains would occupy
 at random close packing) and the front x_f is the furthest x where h exceeds a threshold (by default
-one cell height). The dataset must hold a packing-fraction variable ``phi`` with dimensions
+the run's own, the ``front_threshold_m`` attribute that ``granflow run`` writes, else one cell
+height). The dataset must hold a packing-fraction variable ``phi`` with dimensions
 ``time``, ``x``, ``z`` (any order), a ``phi_max`` attribute on ``phi`` or on the dataset, and
 coordinates ``x`` and ``z`` in metres. Cell heights come from CF cell bounds when the ``z``
 coordinate has a ``bounds`` attribute, otherwise ``z`` must be uniformly spaced.
@@ -36,6 +37,8 @@ PHI_VAR = "phi"
 X_DIM = "x"
 Z_DIM = "z"
 PHI_MAX_ATTR = "phi_max"
+RUN_THRESHOLD_ATTR = "front_threshold_m"
+"""Global attribute in which ``granflow run`` records its front threshold [m]."""
 #: Relative tolerance on the spacing of ``z`` for it to count as uniform.
 UNIFORM_RTOL = 1e-6
 #: Number of values per cell in a CF bounds variable.
@@ -117,8 +120,9 @@ class GranflowAccessor:
                             attrs={"units": LENGTH_UNITS, "long_name": "cell height"})
 
     def _threshold(self, threshold: float | None) -> float:
-        if threshold is None:
-            return float(self.cell_heights().max())
+        if threshold is None:  # the run's own threshold (granflow run writes it), else one cell
+            stored = self._ds.attrs.get(RUN_THRESHOLD_ATTR)
+            return float(stored) if stored is not None else float(self.cell_heights().max())
         threshold = float(threshold)
         if not threshold >= 0.0:
             raise GranflowInputError(f"front threshold must be >= 0 m, got {threshold}")
@@ -155,7 +159,8 @@ class GranflowAccessor:
         Parameters
         ----------
         threshold : float, optional
-            Thickness threshold [m]; default one cell height (the largest, if cells differ).
+            Thickness threshold [m]; default the run's (attribute ``front_threshold_m``), else one
+            cell height (the largest, if cells differ).
         method : {"cell", "linear"}
             ``"cell"``: centre of the furthest cell above the threshold. ``"linear"``: the point
             between that cell centre and the next where the linear interpolant of h equals the
