@@ -39,3 +39,23 @@ def test_probes_record_the_basal_pore_pressure(tmp_path):
 def test_probe_outside_the_box_is_rejected():
     with pytest.raises(GranflowInputError, match=r"output\.probes_x.*\[0\.5\]"):
         load_case(EXAMPLE, overrides=["output.probes_x=[0.1, 0.5]"])
+
+
+def test_restart_with_other_probes_is_rejected(tmp_path):
+    out = tmp_path / "run"
+    argv = ["run", str(EXAMPLE), "--out", str(out), "--quiet", "--set", "output.probes_x=[0.01]"]
+    for item in TINY:
+        argv += ["--set", item]
+    assert main(argv) == 0
+    argv = ["run", str(EXAMPLE), "--out", str(out), "--quiet", "--restart", str(out),
+            "--set", "output.probes_x=[0.2]", "--set", "time.stop_time=0.04"]
+    for item in TINY[:2]:
+        argv += ["--set", item]
+    assert main(argv) == 2
+
+
+def test_probe_box_of_a_dimensionless_case_is_its_setup_box():
+    lagree = EXAMPLE.with_name("lagree_column.toml")
+    assert load_case(lagree, overrides=["output.probes_x=[1.0, 2.0]"]).output.probes_x == [1.0, 2.0]
+    with pytest.raises(GranflowInputError, match=r"output\.probes_x.*setup\.Lx"):
+        load_case(lagree, overrides=["output.probes_x=[6.0]"])

@@ -490,9 +490,11 @@ def _registry_errors(data: Any, material: Material) -> list[str]:
 def _common_problems(cfg: CaseConfig) -> list[tuple[str, str]]:
     """Consistency of options of the common sections with each other (any case)."""
     out = []
-    bad = [x for x in cfg.output.probes_x if not 0.0 <= x <= cfg.grid.Lx]
+    # a case may take its box length from [setup] (lagree_column: setup.Lx, dimensionless)
+    key, length = ("setup.Lx", cfg.setup.Lx) if hasattr(cfg.setup, "Lx") else ("grid.Lx", cfg.grid.Lx)
+    bad = [x for x in cfg.output.probes_x if not 0.0 <= x <= length]
     if bad:
-        out.append(("output.probes_x", f"{bad} outside the box [0, grid.Lx = {cfg.grid.Lx}] m"))
+        out.append(("output.probes_x", f"{bad} outside the box [0, {key} = {length}]"))
     return out
 
 

@@ -19,9 +19,10 @@ Step n -> n+1 (:meth:`Model.advance`):
    (the gas block depends on t^n fields only); the closure is evaluated at
    ``I_e = I(sqrt(|S_k|^2 + eps^2), p_e)``, ``p_e = p_k + delta_p`` (finite, > 0):
 
-   * yield viscosity ``eta = max(Z, 0) p_k / (2 sqrt(|S_k|^2 + eps^2)) + eta_visc/2 + eta_a``
+   * yield viscosity ``eta = max(Z, 0) p_k / (2 sqrt(|S_k|^2 + eps^2)) + eta_visc/2 + eta_b``
      at cells (``eta_visc S`` is the closure's viscous stress), arithmetic mean to nodes
-     (regularisation ``eps``, NUMERICS.md §4); ambient cells get ``eta_a``; cells with ``Z < 0``
+     (regularisation ``eps``, NUMERICS.md §4; ``eta_b`` the dense background viscosity, default
+     ``eta_a``); ambient cells get ``eta_a``; cells with ``Z < 0``
      are counted in the report;
    * dilatancy row on dense, active cells ``Div u + C p = b``: the stiff-safe law
      ``div u = fac (2|S| A(phi, I) - G(phi) sqrt(p))`` (``Closure.A``,

@@ -90,6 +90,9 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
     out += extent_problems(config, "setup.H0", s.H0, "z") + extent_problems(config, "setup.L0", s.L0, "x")
     if s.L0 >= config.grid.Lx:
         out.append(("setup.L0", f"{s.L0} m leaves no room to spread (grid.Lx = {config.grid.Lx} m)"))
+    if config.grid.periodic_x:
+        out.append(("grid.periodic_x", "a column collapse needs its west (symmetry) and east walls; "
+                                       "set periodic_x = false"))
     if s.b0 > 0 and not model_supports(GAS_OPTION):
         out.append(("setup.b0", f"an initially fluidised column (b0 = {s.b0} > 0) {NOT_YET}; set b0 = 0"))
     elif s.b0 > 0 and config.gas.law == "none":

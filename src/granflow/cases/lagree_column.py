@@ -38,6 +38,7 @@ import numpy as np
 from pydantic import Field
 
 from granflow import diagnostics as dg
+from granflow.cases import common
 from granflow.cases.common import make_simulation, rectangle_fraction
 from granflow.cases.registry import CASES
 from granflow.config import (
@@ -49,7 +50,7 @@ from granflow.config import (
     MaterialSection,
     Section,
 )
-from granflow.grid import Grid, VelocityBCs
+from granflow.grid import Grid
 from granflow.materials import InertialConvention, Material
 from granflow.model import Model
 from granflow.rheology import make_closure
@@ -174,19 +175,16 @@ def numerics_used(config: CaseConfig) -> dict[str, float]:
 
 
 def make_model(config: CaseConfig) -> Model:
-    """The :class:`Model`: the case's box, material, closure and g = 1; walls and numerics from
-    the config."""
-    n, w, s = config.numerics, config.walls, config.setup
+    """The :class:`Model`: :func:`granflow.cases.common.make_model` with the case's box,
+    material, closure, g = 1 and the dimensionless numerics substitutes (:func:`numerics_used`);
+    every other option from the config."""
+    n, s = config.numerics, config.setup
     used = numerics_used(config)
-    grid = Grid(nx=config.grid.nx, nz=config.grid.nz, Lx=s.Lx, Lz=s.Lz)
-    ambient = {**n.ambient.model_dump(), "rho_a": used["rho_a"]}
     slope = np.radians(config.gravity.slope_deg)
-    return Model(grid, closure(config), gravity=(GRAVITY * np.sin(slope), -GRAVITY * np.cos(slope)),
-                 bcs=VelocityBCs(west=w.west, east=w.east, bottom=w.bottom, top=w.top),
-                 eps=n.eps, ambient=ambient, picard=n.picard, delta_p=used["delta_p"],
-                 interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
-                 consistent_gravity=n.consistent_gravity, advection=n.advection,
-                 linear_solver=n.linear_solver)
+    return common.make_model(
+        config, grid=Grid(nx=config.grid.nx, nz=config.grid.nz, Lx=s.Lx, Lz=s.Lz),
+        closure=closure(config), gravity=(GRAVITY * np.sin(slope), -GRAVITY * np.cos(slope)),
+        ambient={**n.ambient.model_dump(), "rho_a": used["rho_a"]}, delta_p=used["delta_p"])
 
 
 # --- diagnostics ---------------------------------------------------------------------------------

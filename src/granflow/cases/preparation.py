@@ -61,9 +61,9 @@ PF_STEADY_TOL = 1.0e-3
 decays as ``exp(-t/tau_1)``, so this bounds ``|p_f - p_f,steady|`` by ~1e-3 of the basal
 lithostatic pressure [-]."""
 REST_SPEED_FACTOR = 1.0e-3
-"""The bed is at rest when its largest granular face speed is below ``REST_SPEED_FACTOR eps Lz``
-[-] (eps Lz = the model's creep velocity scale, :attr:`Model.gravity_blend_velocity`; 7.5e-7 m/s
-with the defaults). A bed under U < U_mf has speeds ~1e-13 m/s; an over-fluidised one (U > U_mf,
+"""The bed is at rest when its largest granular face speed is below ``REST_SPEED_FACTOR`` times the
+model's creep velocity scale :attr:`Model.gravity_blend_velocity` [-] (eps Lz by default, then
+7.5e-7 m/s; ``numerics.gravity_blend_velocity`` changes it). A bed under U < U_mf has speeds ~1e-13 m/s; an over-fluidised one (U > U_mf,
 or the non-linear law at U_mf, whose top exceeds U_mf as the gas expands) creeps at 1e-5 to
 eps Lz and is never declared steady."""
 STEADY_WINDOW_TAU = 1.0
@@ -172,7 +172,7 @@ class SteadyCriterion:
     Attributes
     ----------
     rest_speed : float
-        [m s^-1], :data:`REST_SPEED_FACTOR` eps Lz.
+        [m s^-1], :data:`REST_SPEED_FACTOR` x :attr:`Model.gravity_blend_velocity`.
     pf_rate : float
         [Pa s^-1], :data:`PF_STEADY_TOL` p_lith,base / tau_1.
     window : float

@@ -232,6 +232,11 @@ class CaseRun:
         t = self.sim.state.t
         with netCDF4.Dataset(self.output_path) as ds:
             times = np.asarray(ds["time"][:], dtype=float)
+            old = np.asarray(ds[PROBE_DIM][:], dtype=float) if PROBE_DIM in ds.variables else np.empty(0)
+        new = np.asarray(self.grid.xc[self.probe_cells], dtype=float)
+        if old.shape != new.shape or not np.array_equal(old, new):
+            raise GranflowInputError(f"--restart: output.probes_x gives probe cells at x = {new.tolist()} m, "
+                                     f"but {self.output_path} has {old.tolist()} m; keep the original probes_x")
         kept = times[times <= t]
         self._last_out_t = float(kept.max()) if kept.size else -np.inf
         return NetCDFWriter.resume(self.output_path, t, coords, variables, attrs, **kw)
@@ -403,7 +408,7 @@ class CaseRun:
         closure = sim.model.closure
         return {
             "case": cfg.case.name, "status": status.value, "message": message,
-            "t_final": st.t, "stop_time": sim.stop_time, "steps": st.step,
+            "t_final": st.t, "stop_time": cfg.time.stop_time, "steps": st.step,
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
             "runout_m": x_final - x_first,
             "front_position": {"threshold_m": self.threshold, "t_s": list(self.front_t),

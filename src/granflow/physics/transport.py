@@ -143,8 +143,10 @@ class TransportResult:
 
 
 MAX_LIMITER_PASSES = 100
-"""Passes of :func:`limit_to_upper_bound` (each settles the cells above the bound; lowering their
-inflows can push a donor over, which the next pass settles)."""
+"""Least number of passes of :func:`limit_to_upper_bound` allowed (each settles the cells above the
+bound; lowering their inflows can push a donor over, which the next pass settles, so a chain of
+full cells needs one pass per cell: the cap is at least nx + nz). Anything left above the bound
+is caught by :func:`clip_to_bounds` and reported (or fails the step beyond its tolerance)."""
 BOUND_RTOL = 1e-12
 """Relative excess over ``phi_max`` that the limiter leaves alone (round-off)."""
 
@@ -169,7 +171,7 @@ def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
     fx0, fz0 = fx, fz
     fx, fz = fx.copy(), fz.copy()
     cap = phi_max * (1.0 + BOUND_RTOL)
-    for _ in range(MAX_LIMITER_PASSES):
+    for _ in range(max(MAX_LIMITER_PASSES, grid.nx + grid.nz)):  # a pass settles one more donor
         excess = phi - dt * flux_divergence(grid, fx, fz) - phi_max
         if not np.any(excess > cap - phi_max):
             break

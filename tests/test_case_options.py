@@ -1,0 +1,29 @@
+"""Common numerics options reach the Model of every case (review findings of session 2)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from granflow.cases.registry import CASES
+from granflow.config import load_case
+from granflow.errors import GranflowInputError
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+OPTIONS = ["numerics.isochoric_interface=0", "numerics.gravity_blend_velocity=0.5",
+           "numerics.ambient.eta_b=0.1", "numerics.linear_solver=amg"]
+
+
+@pytest.mark.parametrize("example", ["lagree_column.toml", "column_collapse_dry.toml", "static_layer.toml"])
+def test_numerics_options_reach_the_model(example):
+    cfg = load_case(EXAMPLES / example, overrides=OPTIONS + ["grid.nx=8", "grid.nz=8"])
+    model = CASES.get(cfg.case.name).setup(cfg).model
+    assert model.isochoric_interface == 0
+    assert model.gravity_blend_velocity == 0.5
+    assert model.ambient.background_viscosity == 0.1
+    assert model.linear_solver_name == "amg"
+
+
+def test_column_collapse_rejects_a_periodic_grid():
+    with pytest.raises(GranflowInputError, match="grid.periodic_x"):
+        load_case(EXAMPLES / "column_collapse_dry.toml", overrides=["grid.periodic_x=true"])
