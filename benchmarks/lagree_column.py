@@ -75,8 +75,12 @@ class Row:
     rejected: int
 
 
+DEFAULT_SWEEPS = 4
+"""Picard sweep cap of the runs (the Model's default)."""
+
+
 def config(n: int, model: str, solver: str, stop_time: float, max_steps: int | None,
-           aspect: float, threshold: float) -> CaseConfig:
+           aspect: float, threshold: float, sweeps: int = DEFAULT_SWEEPS) -> CaseConfig:
     """The case file of one run (as a dict through the strict loader)."""
     time_section = {"stop_time": stop_time, "dt_max": DT_MAX}
     if max_steps:
@@ -84,13 +88,14 @@ def config(n: int, model: str, solver: str, stop_time: float, max_steps: int | N
     return CaseConfig.from_dict({
         "case": {"name": CASE}, "setup": {"model": model, "a": aspect},
         "grid": {"nx": n, "nz": n}, "time": time_section,
-        "numerics": {"linear_solver": solver}, "output": {"front_threshold": threshold}})
+        "numerics": {"linear_solver": solver, "picard": {"max_sweeps": sweeps}},
+        "output": {"front_threshold": threshold}})
 
 
 def run_one(n: int, model: str, solver: str, stop_time: float, max_steps: int | None,
-            aspect: float, threshold: float) -> Row:
+            aspect: float, threshold: float, sweeps: int = DEFAULT_SWEEPS) -> Row:
     """One run; figures of :class:`Row`."""
-    cfg = config(n, model, solver, stop_time, max_steps, aspect, threshold)
+    cfg = config(n, model, solver, stop_time, max_steps, aspect, threshold, sweeps)
     sim = CASES.get(CASE).setup(cfg)
     cpu0, wall0 = time.process_time(), time.perf_counter()
     sim.run()
@@ -147,12 +152,14 @@ def main(argv: list[str] | None = None) -> list[Row]:
     ap.add_argument("--aspect", type=float, default=1.42, help="aspect ratio a = H0/L0 [-]")
     ap.add_argument("--front-threshold", type=float, default=DEFAULT_FRONT_THRESHOLD,
                     help="deposit thickness defining the front [H0]")
+    ap.add_argument("--picard-sweeps", type=int, default=DEFAULT_SWEEPS,
+                    help="numerics.picard.max_sweeps (1 = one lagged-coefficient solve per step)")
     ap.add_argument("--in-process", action="store_true",
                     help="run in this process (peak memory is then the running maximum)")
     args = ap.parse_args(argv)
     resolutions = [int(v) for v in args.resolutions.split(",")]
     caps = _caps(args.max_steps, resolutions)
-    jobs = [(n, model, solver, args.stop_time, caps[n], args.aspect, args.front_threshold)
+    jobs = [(n, model, solver, args.stop_time, caps[n], args.aspect, args.front_threshold, args.picard_sweeps)
             for model in args.models.split(",") for solver in args.linear_solvers.split(",")
             for n in resolutions]
     print(f"# {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start; "
