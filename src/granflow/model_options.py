@@ -1,0 +1,165 @@
+"""The options of :class:`granflow.model.Model` (numerical constants, the ambient and Picard
+parameters, the linear-solver choice) and what one step reports (:class:`StepReport`).
+
+Split from :mod:`granflow.model`, which re-exports every name here; see its docstring for the
+scheme these options control.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+from pydantic import Field
+
+from granflow.params import Params
+from granflow.physics.coupling import GasPowers
+
+DEFAULT_GRAVITY = (0.0, -9.81)
+"""Gravity (g_x, g_z) [m s^-2]."""
+DEFAULT_EPS = 5.0e-3
+"""Regularisation strain rate eps [s^-1] (NUMERICS.md §4: 1e-3..5e-3 gives the same run-out)."""
+DEFAULT_DELTA_P = 1.0
+"""Pressure offset delta_p [Pa] of the sqrt(p) linearisation and of I at p -> 0 (NUMERICS.md §3.1)."""
+PHI_FLOOR = 1.0e-3
+"""Lower clip of phi where the closure is evaluated (NUMERICS.md §6)."""
+INTERFACE_RADIUS = 2
+"""Half-width (cells) of the neighbourhood of the interface packing phi_loc (NUMERICS.md §7.1)."""
+VISCOUS_ADDITION_FACTOR = 0.5
+"""The closure's viscous stress eta_visc S is 2 (eta_visc/2) S in the tau = 2 eta S convention."""
+DEFAULT_PHI_TOLERANCE = 0.05
+"""Relative overshoot of phi_max (before clipping) that fails a step."""
+AUTO_AMG_UNKNOWNS = 20_000
+"""``linear_solver="auto"`` uses the AMG path from this many saddle-point unknowns (velocities +
+pressures) up; below it SciPy's sparse LU is faster (benchmarks/linear_solvers.py: AMG 15-28
+iterations from 40 x 15 to 160 x 60 cells, cost ~N^1.04 against ~N^1.46 for the LU)."""
+
+
+class LinearSolverChoice(str, Enum):
+    """Linear solver of the Picard sweeps (:class:`Model` ``linear_solver``)."""
+
+    AUTO = "auto"
+    """``direct`` below :data:`AUTO_AMG_UNKNOWNS` unknowns, ``amg`` above."""
+    DIRECT = "direct"
+    """SciPy's sparse LU (SuperLU): exact, the reference; cost grows ~N^1.5."""
+    AMG = "amg"
+    """FGMRES preconditioned by the block AMG of :mod:`granflow.solvers.saddle`: ~O(N)."""
+
+
+class AmbientParams(Params):
+    """The pressureless light ambient (NUMERICS.md §7).
+
+    Attributes
+    ----------
+    phi_c : float
+        Cells with phi < phi_c are ambient [-]. Default 0.3.
+    rho_a : float
+        Ambient inertia [kg m^-3] (no weight). Default 2.
+    eta_a : float
+        Ambient viscosity [Pa s]. Default 1e-3.
+    eta_b : float, optional
+        Background viscosity added to the dense cells [Pa s]; default (None) ``eta_a``, so that
+        one number sets both (the v1 behaviour). Set it apart from ``eta_a`` to damp the grains
+        that numerical diffusion leaves in the ambient without changing the dense rheology.
+    """
+
+    phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")
+    rho_a: float = Field(2.0, gt=0, description="ambient density [kg m^-3]")
+    eta_a: float = Field(1.0e-3, gt=0, description="ambient viscosity [Pa s]")
+    eta_b: float | None = Field(None, gt=0, description="background viscosity of the dense cells "
+                                "(default: eta_a) [Pa s]")
+
+    @property
+    def background_viscosity(self) -> float:
+        """``eta_b``, or ``eta_a`` when not given [Pa s]."""
+        return self.eta_a if self.eta_b is None else self.eta_b
+
+
+class PicardParams(Params):
+    """Picard / active-set loop of one step.
+
+    Attributes
+    ----------
+    max_sweeps : int
+        Maximum number of linear solves per step. Default 4.
+    tol : float
+        Converged when ``|u_{k+1} - u_k| <= tol (|u_{k+1}| + sqrt(n) eps Lz)`` and the active set
+        did not change [-]. Default 1e-3.
+    fail_tol : float
+        The step FAILS if the last relative increment exceeds this [-]. Default 0.5.
+    """
+
+    max_sweeps: int = Field(4, ge=1, description="maximum Picard sweeps per step")
+    tol: float = Field(1.0e-3, gt=0, description="relative velocity-increment tolerance")
+    fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
+
+
+class StepStatus(str, Enum):
+    """Outcome of :meth:`Model.advance`."""
+
+    OK = "ok"
+    """Converged and within bounds."""
+    NOT_CONVERGED = "not_converged"
+    """Accepted: Picard stopped at ``max_sweeps`` with an increment below ``fail_tol``."""
+    FAILED = "failed"
+    """Rejected (state unchanged): NaN, Picard divergence, CFL or phi-bound violation."""
+
+
+@dataclass(frozen=True)
+class StepReport:
+    """What happened during one step. Powers are per unit width [W m^-1], masses [m^2]."""
+
+    status: StepStatus
+    dt: float
+    message: str = ""
+    picard_iterations: int = 0
+    picard_increment: float = float("nan")
+    active_set_changes: int = 0
+    n_dense: int = 0
+    n_free: int = 0
+    n_negative_Z: int = 0
+    cfl: float = float("nan")
+    clipped_mass: float = 0.0
+    added_mass: float = 0.0
+    limited_mass: float = 0.0
+    """Solid volume per unit width [m^2] the transport's upper-bound limiter kept in donor cells
+    (:func:`granflow.physics.transport.limit_to_upper_bound`; mass is conserved, only where it
+    goes changes)."""
+    max_phi_before_clip: float = float("nan")
+    min_phi_before_clip: float = float("nan")
+    dissipation_yield: float = 0.0
+    """``dV u^T V u`` with the viscosity of the last solve (yield + viscous + background)."""
+    dissipation_dilatancy: float = 0.0
+    """``-dV sum p Div u`` (the dilatancy work; may be negative locally and in total)."""
+    inertia_dissipation: float = 0.0
+    """Backward-Euler numerical dissipation ``sum rho_f |u^{n+1} - u^n|^2 dV / (2 dt)``."""
+    advection_power: float = 0.0
+    """``dV sum rho_f a^n . u^{n+1}`` (upwind advection work)."""
+    gravity_power: float = 0.0
+    """``dV sum f_g . u^{n+1}``."""
+    timings: dict = field(default_factory=dict)
+    """Wall time per phase [s]: 'assembly', 'solve', 'transport'."""
+    gas: GasPowers | None = None
+    """Gas energy terms of the step (None for the dry model)."""
+    linear_iterations: int = 0
+    """Krylov iterations summed over the Picard sweeps (0 with the direct solver)."""
+    wrapped_mass: float = 0.0
+    """Periodic grid: solid volume per unit width [m^2] carried in +x through the periodic
+    x-face 0 by the transport of the step (0 for a closed box); the energy budget uses it to
+    follow the potential energy across the period."""
+
+    @property
+    def failed(self) -> bool:
+        return self.status is StepStatus.FAILED
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    """Lagged coefficients of one Picard sweep, flat over cells."""
+
+    eta_c: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    n_negative_Z: int
+    nonfinite: dict
+    """Number of dense cells with a non-finite Z, b or C (empty if all finite)."""
