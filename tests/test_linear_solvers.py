@@ -337,7 +337,7 @@ def test_direct_solver_reuses_the_factorisation_only_for_an_unchanged_matrix():
 
 
 def test_registry_parameters_and_failures():
-    assert LINEAR_SOLVERS.names() == ["amg", "amg_cg", "direct"]
+    assert LINEAR_SOLVERS.names() == ["amg", "amg_cg", "direct", "pardiso"]
     with pytest.raises(GranflowInputError, match="unknown linear solver"):
         make_linear_solver("superlu")
     with pytest.raises(GranflowInputError, match="n_velocity"):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import granflow.model as gm
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.model import AUTO_AMG_UNKNOWNS, Model
@@ -54,7 +55,9 @@ def test_amg_path_reports_krylov_iterations():
 
 
 @pytest.mark.parametrize(("nx", "nz", "expected"), [(40, 15, "direct"), (120, 60, "amg")])
-def test_auto_picks_the_solver_by_size(nx, nz, expected):
+def test_auto_picks_the_solver_by_size(nx, nz, expected, monkeypatch):
+    """Without the optional PARDISO (tests/test_pardiso.py covers "auto" with it)."""
+    monkeypatch.setattr(gm, "pardiso_available", lambda: False)
     g = Grid(nx=nx, nz=nz, Lx=0.4, Lz=0.15)
     unknowns = g.n_unknowns + g.n_cells
     assert (unknowns >= AUTO_AMG_UNKNOWNS) == (expected == "amg")

@@ -196,9 +196,10 @@ class NumericsSection(Section):
         "closure's dilatancy law; 0 = off [cells]")
     phi_tolerance: float = Field(DEFAULT_PHI_TOLERANCE, gt=0, description="relative overshoot of "
                                  "phi_max (before clipping) that fails a step [-]")
-    linear_solver: Literal["auto", "direct", "amg"] = Field(
-        "auto", description='linear solver of each Picard sweep: "direct" (sparse LU), "amg" '
-        f'(FGMRES + block AMG, ~O(N)) or "auto" (amg from {AUTO_AMG_UNKNOWNS} unknowns up) [-]')
+    linear_solver: Literal["auto", "direct", "pardiso", "amg"] = Field(
+        "auto", description='linear solver of each Picard sweep: "direct" (SciPy sparse LU), "pardiso" '
+        '(MKL sparse LU, needs granflow[fast]), "amg" (FGMRES + block AMG, ~O(N)) or "auto" (pardiso '
+        f'if installed, else amg from {AUTO_AMG_UNKNOWNS} unknowns up and direct below) [-]')
     picard: PicardSection = Field(default_factory=PicardSection, description="Picard loop [-]")
     ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
 

@@ -102,7 +102,7 @@ from granflow.physics.transport import (
     flux_face_fraction,
 )
 from granflow.rheology.base import Closure
-from granflow.solvers import SaddleHints, make_linear_solver
+from granflow.solvers import SaddleHints, make_linear_solver, pardiso_available
 from granflow.state import State
 
 
@@ -156,9 +156,10 @@ class Model:
         loose material that dilates under shear or compacts (docs/solver.md, "Free surface").
         The yield stress there is unchanged.
     linear_solver : LinearSolverChoice or str
-        ``"direct"`` (default; sparse LU), ``"amg"`` (FGMRES + block AMG, ~O(N)) or ``"auto"``
-        (``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up). The chosen one is
-        :attr:`linear_solver_name`.
+        ``"direct"`` (default; SciPy's sparse LU), ``"pardiso"`` (MKL sparse LU, optional extra
+        ``granflow[fast]``), ``"amg"`` (FGMRES + block AMG, ~O(N)) or ``"auto"`` (``pardiso`` if
+        installed, else ``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up and ``direct`` below).
+        The chosen one is :attr:`linear_solver_name`.
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -220,10 +221,15 @@ class Model:
             raise GranflowInputError(f"Model: unknown linear_solver {linear_solver!r}; expected one of "
                                      f"{[c.value for c in LinearSolverChoice]}") from None
         if choice is LinearSolverChoice.AUTO:
-            choice = (LinearSolverChoice.AMG if grid.n_unknowns + grid.n_cells >= AUTO_AMG_UNKNOWNS
+            choice = (LinearSolverChoice.PARDISO if pardiso_available()
+                      else LinearSolverChoice.AMG if grid.n_unknowns + grid.n_cells >= AUTO_AMG_UNKNOWNS
                       else LinearSolverChoice.DIRECT)
         self.linear_solver_name = choice.value
+        self._stable_pattern = choice is LinearSolverChoice.PARDISO
+        """Pressure unknowns = every dense cell (free ones pinned to 0), so that the matrix
+        pattern does not change with the active set and PARDISO keeps its analysis."""
         self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
+                              else make_linear_solver(choice.value) if choice is LinearSolverChoice.PARDISO
                               else make_linear_solver(choice.value, grid=grid))
         self.gas = None
         self.gas_coupling: GasCoupling | None = None
@@ -389,6 +395,8 @@ class Model:
         u_k = state.vel.copy()
         p_k = np.maximum(state.p.ravel(), 0.0)
         free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
+        if self.linear_solver is not None:
+            self.linear_solver.begin_step()
         n = g.n_unknowns
         floor = np.sqrt(n) * self.eps * g.Lz
         changes, rel, sweeps, n_negz, krylov = 0, np.inf, 0, 0, 0
@@ -408,8 +416,9 @@ class Model:
             eta_n = ops.cell_to_node @ coef.eta_c
             a_data = self.assembler.velocity_data(rho_f / dt + drag, coef.eta_c, eta_n)
             act = dense & ~free
-            K = self.assembler.saddle(a_data, act, coef.C, border)
-            rhs = np.concatenate([rhs_u, -coef.b[act]] + rhs_gas)
+            punk = dense if self._stable_pattern else act  # pressure unknowns (saddle ``unknowns``)
+            K = self.assembler.saddle(a_data, act, coef.C, border, unknowns=punk)
+            rhs = np.concatenate([rhs_u, -np.where(act, coef.b, 0.0)[punk]] + rhs_gas)
             t1 = time.perf_counter()
             tim["assembly"] += t1 - t0
             with warnings.catch_warnings():
@@ -418,8 +427,8 @@ class Model:
                     if self.linear_solver is None:
                         sol = spla.spsolve(K, rhs)
                     else:
-                        m_act = int(np.count_nonzero(act))
-                        x0 = np.concatenate([u_k, p_k[act], np.zeros(K.shape[0] - n - m_act)])
+                        m_unk = int(np.count_nonzero(punk))
+                        x0 = np.concatenate([u_k, np.where(act, p_k, 0.0)[punk], np.zeros(K.shape[0] - n - m_unk)])
                         sol, info = self.linear_solver.solve(
                             K, rhs, x0=x0, hints=SaddleHints(mass=rho_f / dt + drag, viscosity=coef.eta_c[act]))
                         krylov += int(info.iterations)
@@ -431,8 +440,8 @@ class Model:
                 return self._failed(dt, "non-finite solution of the linear system", sweeps, tim)
             u_new = sol[:n]
             p_new = np.zeros(g.n_cells)
-            m = int(np.count_nonzero(act))
-            p_new[act] = sol[n:n + m]
+            m = int(np.count_nonzero(punk))
+            p_new[punk] = sol[n:n + m]  # 0 in the free cells among the unknowns
             if gas_sys is not None:
                 p_f_new = gas_sys.expand(sol[n + m:])
             eta_last = (coef.eta_c, eta_n)

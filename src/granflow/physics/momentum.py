@@ -281,7 +281,8 @@ class SaddleAssembler:
         keep = mask[self._g_cols]
         return self._g_rows[keep], renum[self._g_cols[keep]], self._g_vals[keep], idx
 
-    def saddle(self, a_data, active, C, border: GasBorder | None = None) -> sp.csc_matrix:
+    def saddle(self, a_data, active, C, border: GasBorder | None = None,
+               unknowns=None) -> sp.csc_matrix:
         """``[[A, Grad_act], [Grad_act^T, -diag(C_act)]]``, pressure unknowns = active cells,
         optionally bordered by the pore-pressure block (module docstring).
 
@@ -295,14 +296,27 @@ class SaddleAssembler:
         border : GasBorder, optional
             p_f unknowns on ``border.wet`` (ordered after the pressures), coupled to the velocity
             by ``Grad_wet`` and its transpose.
+        unknowns : ndarray of bool, (n_cells,), optional
+            Pressure unknowns, a superset of ``active`` (default: ``active``). The extra cells get
+            the row ``-p = rhs`` (their right-hand side must be 0, so p = 0) and keep their
+            ``Grad`` entries as stored zeros, so the sparsity pattern depends on ``unknowns``
+            only: a solver that keeps its symbolic analysis while the pattern is unchanged
+            (:mod:`granflow.solvers.pardiso`) then re-uses it when the active set changes.
         """
         n = self.n
-        gr, gp, gv, idx = self._grad_columns(np.asarray(active, dtype=bool), n)
+        active = np.asarray(active, dtype=bool)
+        unknowns = active if unknowns is None else np.asarray(unknowns, dtype=bool)
+        if np.any(active & ~unknowns):
+            raise GranflowInputError("saddle: every active cell must be a pressure unknown")
+        gr, gp, gv, idx = self._grad_columns(unknowns, n)
         m = idx.size
         diag = n + np.arange(m)
+        on = active[idx]
+        if not on.all():
+            gv = np.where(on[gp - n], gv, 0.0)
         rows = [self._rows, gr, gp, diag]
         cols = [self._cols, gp, gr, diag]
-        vals = [a_data, gv, gv, -np.asarray(C, dtype=float)[idx]]
+        vals = [a_data, gv, gv, np.where(on, -np.asarray(C, dtype=float)[idx], -1.0)]
         size = n + m
         if border is not None:
             fr, fp, fv, widx = self._grad_columns(np.asarray(border.wet, dtype=bool), size)

@@ -2,7 +2,7 @@
 
 >>> from granflow.solvers import LINEAR_SOLVERS
 >>> LINEAR_SOLVERS.names()
-['amg', 'amg_cg', 'direct']
+['amg', 'amg_cg', 'direct', 'pardiso']
 
 ``make_linear_solver(name, **params).solve(matrix, rhs, x0=None, change="auto", hints=None)``
 returns ``(x, SolveInfo)``; see :mod:`granflow.solvers.linear` and :mod:`granflow.solvers.saddle`.
@@ -11,6 +11,7 @@ from granflow.solvers.amg import Reuse, velocity_near_nullspace
 from granflow.solvers.linear import (LINEAR_SOLVERS, AMGConjugateGradient, DirectSolver,
                                      LinearSolver, LinearSolverError, MatrixChange, SolveInfo,
                                      make_linear_solver)
+from granflow.solvers.pardiso import PardisoSolver, pardiso_available
 from granflow.solvers.saddle import BlockAMGSolver, SaddleHints, Schur
 
 __all__ = [
@@ -21,10 +22,12 @@ __all__ = [
     "LinearSolver",
     "LinearSolverError",
     "MatrixChange",
+    "PardisoSolver",
     "Reuse",
     "SaddleHints",
     "Schur",
     "SolveInfo",
     "make_linear_solver",
+    "pardiso_available",
     "velocity_near_nullspace",
 ]

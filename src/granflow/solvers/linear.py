@@ -184,6 +184,11 @@ class LinearSolver:
     def reset(self) -> None:
         """Forget every cached factorisation/hierarchy."""
 
+    def begin_step(self) -> None:
+        """Called by :meth:`granflow.model.Model.advance` before the first sweep of each step:
+        a solver whose cached set-up depends on the values of earlier matrices forgets it here, so
+        that a step's result depends only on the state it starts from (bit-identical restarts)."""
+
     def describe(self) -> dict[str, Any]:
         """Name and parameters (for reports and output metadata)."""
         return {"name": self.name, **self.params.model_dump()}

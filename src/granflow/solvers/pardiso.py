@@ -1,0 +1,223 @@
+"""Sparse LU by Intel MKL PARDISO (optional extra ``granflow[fast]``: the ``pypardiso`` wheel).
+
+Why: on the saddle-point systems of the Picard sweeps (issue "performance" item 2) SciPy's
+SuperLU refactorises from scratch at every sweep (310 ms at 128^2 in the Lagree column, 3.3e4
+unknowns), while PARDISO splits the work into an analysis (fill-reducing ordering and symbolic
+factorisation, phase 11), a numerical factorisation (phase 22) and the solve (phase 33), and the
+analysis can be kept while the sparsity pattern does not change: the Picard sweeps of one step,
+whose pattern the Model keeps fixed by pinning free cells instead of dropping them
+(``SaddleAssembler.saddle(..., unknowns=dense)``). The analysis is redone at the first sweep of
+each step (:meth:`PardisoSolver.begin_step`), because its scaling and matching depend on the
+matrix values and a restarted run must be bit-identical to a continued one. Measured on that
+system (one core): analysis 57 ms (minimum degree) / 132 ms (METIS), numerical factorisation
+80-90 ms, solve 6 ms (benchmarks/linear_solvers.py, benchmarks/README.md).
+
+Interface: :class:`PardisoSolver` is the registry's ``"pardiso"``; :func:`pardiso_available`
+says whether the MKL runtime can be loaded. The matrix is passed as CSR with sorted indices
+(matrix type 11, real unsymmetric, with MKL's default pivoting, scaling and matching). The
+result does not depend on the number of MKL threads beyond round-off (tests/test_pardiso.py).
+
+Note: PARDISO's phases are reached through ``pypardiso.PyPardisoSolver._call_pardiso`` (its
+public ``solve`` always re-analyses a new matrix), hence the pin ``pypardiso < 0.5``.
+"""
+from __future__ import annotations
+
+import functools
+import glob
+import os
+import sys
+import time
+from enum import Enum
+
+import numpy as np
+import scipy.sparse as sp
+from pydantic import Field
+
+from granflow.params import Params
+from granflow.solvers.linear import (LINEAR_SOLVERS, LinearSolver, LinearSolverError, MatrixChange,
+                                     SolveInfo, check_system, relative_residual)
+
+
+class PardisoPhase(int, Enum):
+    """PARDISO phase codes (MKL reference, ``pardiso`` ``phase`` argument)."""
+
+    ANALYSIS = 11
+    FACTORISE = 22
+    SOLVE = 33
+    ANALYSE_FACTORISE_SOLVE = 13
+    RELEASE = -1
+
+
+class PardisoOrdering(str, Enum):
+    """Fill-reducing ordering of the analysis (``iparm[2]``)."""
+
+    MINIMUM_DEGREE = "minimum_degree"
+    METIS = "metis"
+
+
+_ORDERING_IPARM = {PardisoOrdering.MINIMUM_DEGREE: 0, PardisoOrdering.METIS: 2}
+_MATRIX_TYPE = 11
+"""Real unsymmetric (the saddle systems are symmetric indefinite; type -2 was 3x slower)."""
+_IPARM_USER = 1
+"""iparm[1] = 1: the iparm array is filled by the caller (the others keep MKL's defaults for type
+11: iparm[10] = 13 pivot perturbation 1e-13, iparm[11] = iparm[13] = 1 scaling and matching)."""
+_IPARM_DEFAULTS_11 = {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1}
+"""1-based iparm entries set for type 11 (MKL's documented defaults; 8 = two steps of iterative
+refinement)."""
+RESIDUAL_LIMIT = 1.0e-8
+"""A solution whose relative residual |Ax - b|/|b| exceeds this is an error: PARDISO perturbs tiny
+pivots instead of failing on a singular matrix (SuperLU raises there)."""
+
+
+_MKL_RT_VARIABLE = "PYPARDISO_MKL_RT"
+"""pypardiso reads the path of MKL's runtime library from this environment variable; without it
+every new solver searches ``sys.prefix`` with a recursive glob (0.5 s each, measured)."""
+
+
+_MKL_RT_GLOBS = ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
+"""Where the ``mkl`` wheel puts the runtime under ``sys.prefix`` (looked at before pypardiso's
+recursive search)."""
+
+
+@functools.cache
+def _mkl_runtime() -> str | None:
+    """Path of the MKL runtime (searched once per process), or None if pypardiso or MKL is missing."""
+    try:
+        import pypardiso
+    except ImportError:
+        return None
+    quick = sorted((p for pat in _MKL_RT_GLOBS for p in glob.glob(os.path.join(sys.prefix, pat))), key=len)
+    for path in [*quick, None]:
+        saved = os.environ.get(_MKL_RT_VARIABLE)
+        if path is not None and saved is None:
+            os.environ[_MKL_RT_VARIABLE] = path
+        try:
+            return str(pypardiso.PyPardisoSolver().libmkl._name)
+        except Exception:  # this library does not load, or (path None) pypardiso finds none
+            continue
+        finally:
+            if saved is None:
+                os.environ.pop(_MKL_RT_VARIABLE, None)
+    return None
+
+
+def pardiso_available() -> bool:
+    """True if ``pypardiso`` imports and finds the MKL runtime."""
+    return _mkl_runtime() is not None
+
+
+def _new_pypardiso(mtype: int):
+    """A ``pypardiso.PyPardisoSolver`` pointed at the runtime found by :func:`_mkl_runtime`
+    (the environment variable is set only for the constructor and restored afterwards)."""
+    import pypardiso
+
+    saved = os.environ.get(_MKL_RT_VARIABLE)
+    os.environ[_MKL_RT_VARIABLE] = saved or _mkl_runtime()
+    try:
+        return pypardiso.PyPardisoSolver(mtype=mtype)
+    finally:
+        if saved is None:
+            del os.environ[_MKL_RT_VARIABLE]
+
+
+@LINEAR_SOLVERS.register("pardiso")
+class PardisoSolver(LinearSolver):
+    """Sparse LU by MKL PARDISO with the analysis kept across matrices of the same pattern.
+
+    ``solve`` re-uses the factorisation when the matrix is unchanged (``change="none"``, or
+    ``"auto"`` with equal pattern and values), re-factorises numerically (phase 22) when only the
+    values changed, and re-analyses (phases 11 + 22) when the pattern changed.
+    ``SolveInfo.rebuilt`` is True when the analysis was redone; ``setup_time`` covers analysis and
+    factorisation. Counters: :attr:`analyses`, :attr:`factorisations`.
+    """
+
+    class Parameters(Params):
+        """Parameters of the PARDISO solver.
+
+        Attributes
+        ----------
+        ordering : str
+            Fill-reducing ordering of the analysis: ``"minimum_degree"`` (default: its analysis
+            is 2x cheaper on the 2-D saddle systems and the factorisation only ~10 % dearer) or
+            ``"metis"`` (nested dissection).
+        """
+
+        ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
+                                          description="fill-reducing ordering of the analysis")
+
+    def __init__(self, params: Params) -> None:
+        super().__init__(params)
+        if not pardiso_available():
+            raise LinearSolverError("linear solver 'pardiso' needs the optional dependency pypardiso with "
+                                    "Intel MKL: pip install 'granflow[fast]' (x86-64 only); or use 'direct'")
+        self._solver = None
+        self.reset()
+
+    def reset(self) -> None:
+        if getattr(self, "_solver", None) is not None and self._pattern is not None:
+            self._release()
+        self._solver = _new_pypardiso(_MATRIX_TYPE)
+        for i, v in _IPARM_DEFAULTS_11.items():
+            self._solver.set_iparm(i, v)
+        self._solver.set_iparm(2, _ORDERING_IPARM[PardisoOrdering(self.params.ordering)])
+        self._pattern: tuple[np.ndarray, np.ndarray] | None = None
+        self._data: np.ndarray | None = None
+        self.analyses = 0
+        self.factorisations = 0
+
+    def begin_step(self) -> None:
+        """Forget the analysis: its scaling and matching (iparm[11], iparm[13]) are computed from the
+        values of the matrix it analysed, so re-using it across steps would make a step depend on
+        the steps before it, and a restarted run differ from a continued one in the last bits."""
+        self._pattern = None
+
+    def _call(self, phase: PardisoPhase, A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
+        self._solver.set_phase(int(phase))
+        try:
+            return self._solver._call_pardiso(A, b)
+        except Exception as err:  # pypardiso.PyPardisoError carries MKL's error code
+            raise LinearSolverError(f"pardiso phase {int(phase)}: {err}") from err
+
+    def _release(self) -> None:
+        try:
+            self._call(PardisoPhase.RELEASE, sp.csr_matrix((0, 0)), np.zeros(0))
+        except LinearSolverError:
+            pass
+
+    def __del__(self) -> None:  # MKL keeps the factors outside Python's heap
+        if getattr(self, "_solver", None) is not None and getattr(self, "_pattern", None) is not None:
+            self._release()
+
+    def solve(self, matrix, rhs, x0=None, change=MatrixChange.AUTO, hints=None):
+        change = MatrixChange(change)
+        A = sp.csr_matrix(matrix, dtype=np.float64)
+        A.sum_duplicates()
+        A.sort_indices()
+        b, _ = check_system(A, rhs)
+        b = np.ascontiguousarray(b, dtype=np.float64)
+        t0 = time.perf_counter()
+        same_pattern = (self._pattern is not None and A.shape[0] == self._pattern[0].size - 1
+                        and np.array_equal(A.indptr, self._pattern[0])
+                        and np.array_equal(A.indices, self._pattern[1]))
+        same_values = same_pattern and (change is MatrixChange.NONE
+                                        or (change is MatrixChange.AUTO and np.array_equal(A.data, self._data)))
+        analysed = False
+        if not same_pattern:
+            self._call(PardisoPhase.ANALYSIS, A, np.zeros(A.shape[0]))
+            self._pattern = (A.indptr.copy(), A.indices.copy())
+            self.analyses += 1
+            analysed = True
+        if not same_values:
+            self._call(PardisoPhase.FACTORISE, A, np.zeros(A.shape[0]))
+            self._data = A.data.copy()
+            self.factorisations += 1
+        t1 = time.perf_counter()
+        x = self._call(PardisoPhase.SOLVE, A, b)
+        t2 = time.perf_counter()
+        if not np.all(np.isfinite(x)):
+            raise LinearSolverError("pardiso: non-finite solution (singular matrix?)")
+        res = relative_residual(A, x, b)
+        if not res <= RESIDUAL_LIMIT:
+            raise LinearSolverError(f"pardiso: relative residual {res:.3g} > {RESIDUAL_LIMIT:g} (singular matrix?)")
+        return x, SolveInfo(solver=self.name, iterations=0, residual=res, scaled_residual=res,
+                            setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=analysed)
