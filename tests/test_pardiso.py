@@ -214,3 +214,25 @@ def test_fluidised_model_steps_agree_with_the_direct_solver():
         results[name] = state
     d, p = results["direct"], results["pardiso"]
     assert rel(p.vel, d.vel) < STEP_AGREEMENT and rel(p.p_f, d.p_f) < STEP_AGREEMENT
+
+
+def test_run_pins_openblas_to_one_thread_and_restores_it():
+    """Simulation.run: numpy's OpenBLAS pools single-threaded during the run (idle OpenBLAS
+    threads spin and slow the threaded PARDISO 2x, simulation.SERIAL_BLAS), restored afterwards;
+    MKL's own pool is not touched."""
+    from threadpoolctl import threadpool_info
+
+    from granflow.simulation import SERIAL_BLAS, IterationInterval, Simulation
+
+    def pools():
+        return {(i["internal_api"], i["filepath"]): i["num_threads"] for i in threadpool_info()}
+
+    model, state = column("pardiso")
+    before = pools()
+    seen = []
+    sim = Simulation(model, state, stop_time=1.0, max_steps=2)
+    sim.add_callback(lambda s: seen.append(pools()), IterationInterval(1))
+    sim.run()
+    assert seen and all(n == 1 for d in seen for (api, _), n in d.items() if api == SERIAL_BLAS)
+    assert all(d[k] == before[k] for d in seen for k in before if k[0] != SERIAL_BLAS)
+    assert pools() == before

@@ -30,12 +30,27 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from granflow.diagnostics import EnergyBudget
 from granflow.errors import GranflowError, GranflowInputError
 from granflow.model import Model, StepReport
 from granflow.physics.transport import stable_dt
 from granflow.state import State
+
+SERIAL_BLAS = "openblas"
+"""threadpoolctl ``internal_api`` of the BLAS pools run single-threaded during
+:meth:`Simulation.run`. The BLAS calls of a step act on vectors of 1e4-1e5 entries and gain
+nothing from threads, while idle OpenBLAS threads spin and take the cores from the threaded sparse
+solver (MKL PARDISO): at 128^2 (Lagree column, 60 steps) 32.7 s wall with both pools at 2
+threads, 15.4 s with OpenBLAS at 1 and MKL at 2, 20.9 s with both at 1 (benchmarks/README.md).
+The limits are restored after the run."""
+
+
+def _run_thread_limits() -> dict[str, int]:
+    """threadpoolctl limits keyed by library prefix (its dict keys are prefixes or user APIs, and
+    the ``blas`` user API would also pin MKL, the sparse solver's pool)."""
+    return {info["prefix"]: 1 for info in threadpool_info() if info["internal_api"] == SERIAL_BLAS}
 
 DEFAULT_CFL = 0.3
 DEFAULT_DT_MAX = 1.0e-3
@@ -305,7 +320,15 @@ class Simulation:
         return self.state.t >= self.stop_time - TIME_EPS * max(1.0, self.stop_time)
 
     def run(self) -> Simulation:
-        """Advance until :meth:`done` or :meth:`request_stop`; returns ``self``."""
+        """Advance until :meth:`done` or :meth:`request_stop`; returns ``self``.
+
+        Numpy's OpenBLAS runs single-threaded during the run (:data:`SERIAL_BLAS`); the sparse
+        direct solver keeps its own threads (``MKL_NUM_THREADS``, default all cores).
+        """
+        with threadpool_limits(limits=_run_thread_limits()):
+            return self._run()
+
+    def _run(self) -> Simulation:
         if not self._started:
             self._started = True
             if not self.state.is_finite():
