@@ -501,3 +501,19 @@ def test_dp_dilatancy_at_phi_max_and_rest_is_finite():
     assert np.isclose(float(c.psi(phi_max, 0.0)), K, rtol=1e-14)
     assert np.isclose(float(c.Z(phi_max, 0.0)), np.sin(d) + np.cos(d) * K, rtol=1e-14)
     assert np.isnan(float(c.psi(phi_max, np.nan)))
+
+
+@pytest.mark.parametrize("x", [0.0, 1e-9, 1e-4, 3e-3, 9.999e-3, 1e-2, 1.0001e-2, 0.1, 1.0, 37.0, 1e6])
+def test_H_and_dH_against_sympy_across_the_series_switch(x):
+    """functions.H, H' (series below SERIES_SWITCH, closed form above) against SymPy's closed form
+    at 30 digits (its limit at x = 0): 1e-12 absolute (H ~ 1; just above the switch the closed form
+    of H' cancels terms of size 3/x^2 = 3e4, measured error 2.7e-14; a wrong series coefficient
+    shows at 1e-5)."""
+    from granflow.rheology.functions import H, dH
+
+    X = sp.Symbol("x", positive=True)
+    h = 1 / (1 + X) - 3 * sp.log(1 + X) / X
+    ref = (sp.limit(h, X, 0), sp.limit(sp.diff(h, X), X, 0)) if x == 0.0 else (
+        h.subs(X, sp.Rational(repr(x))).evalf(30), sp.diff(h, X).subs(X, sp.Rational(repr(x))).evalf(30))
+    assert abs(float(H(x)) - float(ref[0])) <= 1e-12
+    assert abs(float(dH(x)) - float(ref[1])) <= 1e-12

@@ -26,35 +26,40 @@ def dmu_dI(I, mu1: float, mu2: float, I0: float):
     return (mu2 - mu1) * I0 / (I + I0) ** 2
 
 
+_H_SERIES = np.array([-2.0, 0.5, 0.0] + [(-1) ** n * (n - 2) / (n + 1) for n in range(3, _SERIES_ORDER)])
+"""Coefficients of x^0 .. x^8 of H's series: -2 + x/2 + 0 x^2 + sum_{n>=3} (-1)^n (n-2)/(n+1) x^n."""
+_DH_SERIES = np.array([k * c for k, c in enumerate(_H_SERIES)][1:])
+"""Coefficients of x^0 .. x^7 of H'(x), the term-by-term derivative."""
+
+
+def _series_or_direct(x, series_coefficients, direct):
+    """``polyval`` of the series (Horner) where ``x < SERIES_SWITCH``, ``direct(x)`` where x is
+    larger and finite, 0 at x = inf (and NaN); each evaluated on its own cells only."""
+    x = np.asarray(x, dtype=float)
+    out = np.zeros(x.shape)
+    small = x < SERIES_SWITCH
+    if small.any():
+        out[small] = np.polynomial.polynomial.polyval(x[small], series_coefficients)
+    large = ~small & np.isfinite(x)
+    if large.any():
+        out[large] = direct(x[large])
+    return out
+
+
 def H(x):
     """H(x) = 1/(1+x) - 3 ln(1+x)/x (paper eq. F-mu(I)); H(0) = -2, H(inf) = 0.
 
     Uses log1p, and the series -2 + x/2 + sum_{n>=3} (-1)^n (n-2)/(n+1) x^n below
     ``SERIES_SWITCH``, so that there is no 0/0 at x = 0.
     """
-    x = np.asarray(x, dtype=float)
-    small = x < SERIES_SWITCH
-    xs = np.where(small, x, 0.0)
-    series = -2.0 + 0.5 * xs
-    for n in range(3, _SERIES_ORDER):
-        series = series + (-1) ** n * (n - 2) / (n + 1) * xs**n
-    xl = np.where(small | ~np.isfinite(x), 1.0, x)
-    direct = 1.0 / (1.0 + xl) - 3.0 * np.log1p(xl) / xl
-    return np.where(small, series, np.where(np.isfinite(x), direct, 0.0))
+    return _series_or_direct(x, _H_SERIES, lambda xl: 1.0 / (1.0 + xl) - 3.0 * np.log1p(xl) / xl)
 
 
 def dH(x):
     """H'(x) = -1/(1+x)^2 - 3 [1/(x(1+x)) - ln(1+x)/x^2]; H'(0) = 1/2, H'(inf) = 0; series below
     ``SERIES_SWITCH``."""
-    x = np.asarray(x, dtype=float)
-    small = x < SERIES_SWITCH
-    xs = np.where(small, x, 0.0)
-    series = np.full_like(xs, 0.5)
-    for n in range(3, _SERIES_ORDER):
-        series = series + (-1) ** n * n * (n - 2) / (n + 1) * xs ** (n - 1)
-    xl = np.where(small | ~np.isfinite(x), 1.0, x)
-    direct = -1.0 / (1.0 + xl) ** 2 - 3.0 * (1.0 / (xl * (1.0 + xl)) - np.log1p(xl) / xl**2)
-    return np.where(small, series, np.where(np.isfinite(x), direct, 0.0))
+    return _series_or_direct(
+        x, _DH_SERIES, lambda xl: -1.0 / (1.0 + xl) ** 2 - 3.0 * (1.0 / (xl * (1.0 + xl)) - np.log1p(xl) / xl**2))
 
 
 def F_mu(I, mu1: float, mu2: float, I0: float):
