@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import weakref
 from enum import Enum
 from typing import NamedTuple
 
@@ -189,6 +190,40 @@ def face_permeability(grid: Grid, ops: Operators, phi, material: Material):
 
 
 # --- assembly -------------------------------------------------------------------------------------
+class _DiffusionPattern:
+    """``grad^T diag(K) grad`` on a fixed CSR pattern (the diagonal always stored): its data are
+    the linear map ``P @ K`` of the face coefficients, built once per operator set, so that each
+    step fills an array instead of multiplying sparse matrices (the SaddleAssembler's idea)."""
+
+    def __init__(self, ops: Operators) -> None:
+        from granflow.physics.momentum import _row_pairs
+
+        n = ops.grid.n_cells
+        k, r, v = _row_pairs(ops.grad, n)
+        kd = np.arange(n, dtype=np.int64) * (n + 1)
+        keys = np.unique(np.concatenate([k, kd]))
+        self.n = n
+        self.rows, self.cols = (keys // n).astype(np.int64), (keys % n).astype(np.int64)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows, minlength=n))]).astype(np.int64)
+        self.indices = self.cols.copy()
+        self.diag = np.searchsorted(keys, kd)
+        self.P = sp.csr_matrix((v, (np.searchsorted(keys, k), r)), shape=(keys.size, ops.grad.shape[0]))
+
+    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+_PATTERNS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""Operators -> _DiffusionPattern (dropped with the operators)."""
+
+
+def _diffusion_pattern(ops: Operators) -> _DiffusionPattern:
+    pat = _PATTERNS.get(ops)
+    if pat is None:
+        pat = _PATTERNS[ops] = _DiffusionPattern(ops)
+    return pat
+
+
 def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material, *,
                  gas: GasLaw | str = GasLaw.LINEAR, p_f=None, dirichlet=None,
                  open_top: bool = False, injection=0.0) -> GasBlock:
@@ -241,20 +276,22 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
 
     kappa_f, kappa_top = face_permeability(grid, ops, phi, material)
     K_f = kappa_f * (material.p_atm + gauge_faces)
-    capacity = (1.0 - phi) / dt
-    matrix = sp.diags(capacity) + ops.grad.T @ sp.diags(K_f) @ ops.grad
+    pat = _diffusion_pattern(ops)
+    data = pat.P @ K_f
+    data[pat.diag] += (1.0 - phi) / dt  # capacity
     if open_top:
         top = np.zeros(grid.n_cells)
         top[_top_cells(grid)] = GHOST_FACE_FACTOR * material.p_atm * kappa_top / grid.dz**2
-        matrix = matrix + sp.diags(top)
+        data[pat.diag] += top
     rhs = np.zeros(grid.n_cells)
     rhs[_bottom_cells(grid)] = (material.p_atm + gauge_base) * u_inj / grid.dz
     if mask.any():
-        keep = sp.diags((~mask).astype(float))
-        scale = float(matrix.diagonal()[~mask].mean()) if (~mask).any() else 1.0
-        matrix = keep @ matrix @ keep + sp.diags(mask * scale)
+        keep = (~mask).astype(float)
+        scale = float(data[pat.diag][~mask].mean()) if (~mask).any() else 1.0
+        data *= keep[pat.rows] * keep[pat.cols]  # Dirichlet rows and columns -> scaled identity
+        data[pat.diag] += mask * scale
         rhs[mask] = 0.0
-    return GasBlock(sp.csr_matrix(matrix), rhs)
+    return GasBlock(pat.matrix(data), rhs)
 
 
 def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=None) -> np.ndarray:
