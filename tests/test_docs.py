@@ -1,18 +1,17 @@
 """Documentation stays in step with the code."""
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
+
+from _scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_options_reference_is_current():
-    spec = importlib.util.spec_from_file_location("make_reference", ROOT / "docs" / "make_reference.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("docs/make_reference.py", "make_reference")
     committed = (ROOT / "docs" / "closures.md").read_text()
     assert committed == mod.render(), "docs/closures.md is stale: run python docs/make_reference.py"
 

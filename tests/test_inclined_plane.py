@@ -245,13 +245,9 @@ def test_fluidised_chute_follows_bagnold_with_the_reduced_friction():
 def test_validation_script_quick_run():
     """validation/inclined_plane/run.py at its coarsest level (nz = 10, 3 s): runs, and its own
     exact solution agrees with the one written here (1e-12) for both c_I, dry and fluidised."""
-    import importlib.util
-    from pathlib import Path
+    from _scripts import load_script
 
-    path = Path(__file__).resolve().parents[1] / "validation" / "inclined_plane" / "run.py"
-    spec = importlib.util.spec_from_file_location("inclined_plane_run", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("validation/inclined_plane/run.py", "inclined_plane_run")
     z = np.linspace(0.0, H0, 7)
     for c_I in (1.0, 2.0):
         for beta, deg in ((0.0, 25.0), (0.15, 22.0)):

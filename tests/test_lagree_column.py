@@ -10,13 +10,12 @@ Slow: the 64 x 64 run-out to t = 4 against the planar scaling band of the experi
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 
 from granflow import diagnostics as dg
 from granflow.cases import CASES
@@ -124,11 +123,7 @@ def test_mu_i_model_builds_the_papers_closure():
 
 
 def _benchmark():
-    spec = importlib.util.spec_from_file_location("bench_lagree_column", ROOT / "benchmarks" / "lagree_column.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses resolve annotations through sys.modules
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("benchmarks/lagree_column.py", "bench_lagree_column")
 
 
 def test_benchmark_script_runs_on_a_tiny_grid(capsys):

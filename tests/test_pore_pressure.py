@@ -366,13 +366,9 @@ def test_bad_input_raises(case):
 
 def test_validation_script_smoke():
     """validation/defluidisation/run.py at its coarsest level (quick): the README table's first row."""
-    import importlib.util
-    from pathlib import Path
+    from _scripts import load_script
 
-    path = Path(__file__).resolve().parents[1] / "validation" / "defluidisation" / "run.py"
-    spec = importlib.util.spec_from_file_location("defluidisation_run", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("validation/defluidisation/run.py", "defluidisation_run")
     res = mod.run(10, quick=True)
     for profile in PROFILES:
         assert res[profile.value]["err"] < 5e-3          # README: 3.4e-3 (lith.), 3.7e-3 (unif.)

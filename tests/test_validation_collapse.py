@@ -11,14 +11,13 @@ above the column carries nothing).
 """
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 from scipy.optimize import brentq
 
 from granflow.cli import main as cli_main
@@ -32,13 +31,7 @@ BOX_LEVEL, BOX_STEPS = 32, 20
 
 
 def _load(rel: str, name: str):
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, ROOT / rel)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(rel, name, cached=True)
 
 
 @pytest.fixture(scope="module")

@@ -9,13 +9,12 @@ must hold the column's H0 L0 at phi0 = phi_max); the published planar band lambd
 """
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY_A = 1.0
@@ -26,13 +25,7 @@ LAMBDA1_BAND = (1.2, 2.2)
 
 
 def _load(rel: str, name: str):
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, ROOT / rel)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(rel, name, cached=True)
 
 
 @pytest.fixture(scope="module")

@@ -14,10 +14,10 @@ on cell faces): 20 x 8 and 40 x 16 cells, to t = 0.15 s (the front is still adva
 """
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
+from _scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 T_END = 0.15
@@ -35,10 +35,7 @@ MASS_TOL = 1e-12
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location("validation_energy_run", ROOT / "validation/energy/run.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("validation/energy/run.py", "validation_energy_run")
 
 
 @pytest.fixture(scope="module")

@@ -16,13 +16,13 @@ README's a = 1 rows at the examples' resolution (dx = dz = 1 cm; ~2 min).
 """
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 
 from granflow.cases import CASES
 from granflow.config import load_case
@@ -67,11 +67,7 @@ def test_smoke_fluidised_column_spreads_faster_than_dry_and_expansion_is_what_ma
 
 
 def _load_run():
-    path = ROOT / "validation" / "fluidised_vs_dry" / "run.py"
-    spec = importlib.util.spec_from_file_location("validation_fluidised_vs_dry_run", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("validation/fluidised_vs_dry/run.py", "validation_fluidised_vs_dry_run")
 
 
 @pytest.mark.slow
@@ -111,11 +107,7 @@ def test_runout_ratio_at_the_examples_resolution(tmp_path):
 
 
 def _load_convergence():
-    spec = importlib.util.spec_from_file_location("fluidised_convergence",
-                                                  ROOT / "validation" / "fluidised_vs_dry" / "convergence.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("validation/fluidised_vs_dry/convergence.py", "fluidised_convergence")
 
 
 def test_convergence_script_smoke_and_ratio_arithmetic(tmp_path):

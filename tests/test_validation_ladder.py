@@ -12,12 +12,12 @@ References, never produced by the code under test:
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 from scipy.integrate import solve_ivp
 
 from granflow.physics.dilatancy import (
@@ -34,10 +34,7 @@ SIN_DELTA = math.sin(math.radians(25.0))                            # drucker_pr
 
 
 def _load(rel: str):
-    spec = importlib.util.spec_from_file_location(rel.replace("/", "_"), ROOT / rel)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(rel)
 
 
 def _logistic(t, phi0: float):

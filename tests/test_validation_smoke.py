@@ -1,17 +1,15 @@
 """Smoke runs of the validation/figure scripts at their coarsest size, so they cannot rot."""
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
+
+from _scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _load(rel: str):
-    spec = importlib.util.spec_from_file_location(rel.replace("/", "_"), ROOT / rel)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(rel)
 
 
 def test_theory_figures_quick(tmp_path):
