@@ -6,7 +6,7 @@ no-slip base, mu_s = 0.32, Delta mu = 0.28, I0 = 0.4, d = 1/40, run to ``--stop-
 t = 4 sqrt(H0/g)) with ``dt_max = 0.01``, CFL 0.3, on ``n x n`` cells for each n of
 ``--resolutions``, for each closure of ``--models`` ("incompressible": the incompressible mu(I)
 reference, the model of the paper; "mu_i": the Chupin-Dubois mu(I) closure with dilatancy) and each
-linear solver of ``--linear-solvers`` (auto, direct, amg).
+linear solver of ``--linear-solvers`` (auto, direct, pardiso, amg).
 
 Prints one row per run: cells, accepted steps, wall and CPU time, cell-steps per wall second,
 Picard sweeps and Krylov iterations per step, the wall-time share of each phase of
@@ -145,7 +145,7 @@ def main(argv: list[str] | None = None) -> list[Row]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--resolutions", default="64,128,256", help="comma-separated n (n x n cells)")
     ap.add_argument("--models", default="incompressible", help='comma-separated: "incompressible", "mu_i"')
-    ap.add_argument("--linear-solvers", default="auto", help="comma-separated: auto, direct, amg")
+    ap.add_argument("--linear-solvers", default="auto", help="comma-separated: auto, direct, pardiso, amg")
     ap.add_argument("--stop-time", type=float, default=4.0, help="simulated time [sqrt(H0/g)]")
     ap.add_argument("--max-steps", default=DEFAULT_CAPS,
                     help=f'step cap: "N" for every resolution or "RES:N,..." (0 = none; default {DEFAULT_CAPS})')
