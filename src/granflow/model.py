@@ -228,6 +228,10 @@ class Model:
         self._stable_pattern = choice is LinearSolverChoice.PARDISO
         """Pressure unknowns = every dense cell (free ones pinned to 0), so that the matrix
         pattern does not change with the active set and PARDISO keeps its analysis."""
+        if choice is LinearSolverChoice.PARDISO and not pardiso_available():
+            raise GranflowInputError("linear_solver 'pardiso' (numerics.linear_solver) needs the optional "
+                                     "dependency pypardiso with Intel MKL: pip install 'granflow[fast]' "
+                                     "(x86-64 only); or use 'auto' or 'direct'")
         self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
                               else make_linear_solver(choice.value) if choice is LinearSolverChoice.PARDISO
                               else make_linear_solver(choice.value, grid=grid))

@@ -323,7 +323,9 @@ class Simulation:
         """Advance until :meth:`done` or :meth:`request_stop`; returns ``self``.
 
         Numpy's OpenBLAS runs single-threaded during the run (:data:`SERIAL_BLAS`); the sparse
-        direct solver keeps its own threads (``MKL_NUM_THREADS``, default all cores).
+        direct solver keeps its own threads (``MKL_NUM_THREADS``, default all cores). The limit is
+        process-wide: simulations run in threads of one process restore each other's limits
+        when they end (the sweep runner uses processes).
         """
         with threadpool_limits(limits=_run_thread_limits()):
             return self._run()

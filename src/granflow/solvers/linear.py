@@ -185,9 +185,12 @@ class LinearSolver:
         """Forget every cached factorisation/hierarchy."""
 
     def begin_step(self) -> None:
-        """Called by :meth:`granflow.model.Model.advance` before the first sweep of each step:
-        a solver whose cached set-up depends on the values of earlier matrices forgets it here, so
-        that a step's result depends only on the state it starts from (bit-identical restarts)."""
+        """Called by :meth:`granflow.model.Model.advance` before the first sweep of each step. The
+        exact solvers forget here whatever cached set-up depends on the values of earlier matrices
+        (``pardiso``'s analysis), so that a step's result depends only on the state it starts from
+        and restarts are bit-identical. The AMG solvers (``amg``, ``amg_cg``) keep their
+        hierarchies across steps (rebuilding them each step would cost a set-up per step): their
+        restarts agree with a continued run to the Krylov tolerance, not bit for bit."""
 
     def describe(self) -> dict[str, Any]:
         """Name and parameters (for reports and output metadata)."""

@@ -59,11 +59,16 @@ _ORDERING_IPARM = {PardisoOrdering.MINIMUM_DEGREE: 0, PardisoOrdering.METIS: 2}
 _MATRIX_TYPE = 11
 """Real unsymmetric (the saddle systems are symmetric indefinite; type -2 was 3x slower)."""
 _IPARM_USER = 1
-"""iparm[1] = 1: the iparm array is filled by the caller (the others keep MKL's defaults for type
-11: iparm[10] = 13 pivot perturbation 1e-13, iparm[11] = iparm[13] = 1 scaling and matching)."""
-_IPARM_DEFAULTS_11 = {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1}
-"""1-based iparm entries set for type 11 (MKL's documented defaults; 8 = two steps of iterative
-refinement)."""
+"""iparm(1) = 1: the iparm array is filled by the caller."""
+_IPARM_SETTINGS = {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1}
+"""1-based iparm entries set for type 11: MKL's documented defaults for this type (10 = 13: pivot
+perturbation 1e-13; 11 = 13 = 1: scaling and weighted matching), except 8 = 2, up to two steps of
+iterative refinement (MKL's default 0 refines only after perturbed pivots)."""
+DEFAULT_REPRODUCIBLE_THREADS = 4
+"""iparm(34) by default (:attr:`PardisoSolver.Parameters.reproducible_threads`)."""
+_EMPTY_MATRIX = sp.csr_matrix((0, 0))
+_EMPTY_RHS = np.zeros(0)
+"""Arguments of the release phase, built once (``__del__`` may run at interpreter shutdown)."""
 RESIDUAL_LIMIT = 1.0e-8
 """A solution whose relative residual |Ax - b|/|b| exceeds this is an error: PARDISO perturbs tiny
 pivots instead of failing on a singular matrix (SuperLU raises there)."""
@@ -140,10 +145,17 @@ class PardisoSolver(LinearSolver):
             Fill-reducing ordering of the analysis: ``"minimum_degree"`` (default: its analysis
             is 2x cheaper on the 2-D saddle systems and the factorisation only ~10 % dearer) or
             ``"metis"`` (nested dissection).
+        reproducible_threads : int
+            MKL's conditional numerical reproducibility (``iparm[33]``): with a value > 0 the
+            result is bit-for-bit the same for every thread count (``MKL_NUM_THREADS``) up to
+            it (measured: 1, 2, 3 threads with 4, tests/test_pardiso.py), so a run and its
+            restart agree on machines with other core counts. Default 4; 0 = off.
         """
 
         ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
                                           description="fill-reducing ordering of the analysis")
+        reproducible_threads: int = Field(DEFAULT_REPRODUCIBLE_THREADS, ge=0, le=1024,
+                                          description="MKL CNR mode thread count (0 = off)")
 
     def __init__(self, params: Params) -> None:
         super().__init__(params)
@@ -151,25 +163,28 @@ class PardisoSolver(LinearSolver):
             raise LinearSolverError("linear solver 'pardiso' needs the optional dependency pypardiso with "
                                     "Intel MKL: pip install 'granflow[fast]' (x86-64 only); or use 'direct'")
         self._solver = None
+        self._allocated = False
         self.reset()
 
     def reset(self) -> None:
-        if getattr(self, "_solver", None) is not None and self._pattern is not None:
-            self._release()
+        self._release()
         self._solver = _new_pypardiso(_MATRIX_TYPE)
-        for i, v in _IPARM_DEFAULTS_11.items():
+        for i, v in _IPARM_SETTINGS.items():
             self._solver.set_iparm(i, v)
         self._solver.set_iparm(2, _ORDERING_IPARM[PardisoOrdering(self.params.ordering)])
+        self._solver.set_iparm(34, int(self.params.reproducible_threads))
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
         self._data: np.ndarray | None = None
         self.analyses = 0
         self.factorisations = 0
 
     def begin_step(self) -> None:
-        """Forget the analysis: its scaling and matching (iparm[11], iparm[13]) are computed from the
-        values of the matrix it analysed, so re-using it across steps would make a step depend on
-        the steps before it, and a restarted run differ from a continued one in the last bits."""
+        """Forget the analysis (the memory is kept until the next one replaces it): its scaling and
+        matching (iparm[11], iparm[13]) are computed from the values of the matrix it analysed,
+        so re-using it across steps would make a step depend on the steps before it, and a
+        restarted run differ from a continued one in the last bits."""
         self._pattern = None
+        self._data = None
 
     def _call(self, phase: PardisoPhase, A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         self._solver.set_phase(int(phase))
@@ -179,14 +194,21 @@ class PardisoSolver(LinearSolver):
             raise LinearSolverError(f"pardiso phase {int(phase)}: {err}") from err
 
     def _release(self) -> None:
+        """Free MKL's memory of this handle (phase -1) if anything was allocated."""
+        if not getattr(self, "_allocated", False) or getattr(self, "_solver", None) is None:
+            return
+        self._allocated = False
+        self._pattern, self._data = None, None
         try:
-            self._call(PardisoPhase.RELEASE, sp.csr_matrix((0, 0)), np.zeros(0))
-        except LinearSolverError:
+            self._call(PardisoPhase.RELEASE, _EMPTY_MATRIX, _EMPTY_RHS)
+        except Exception:  # nothing more can be done; MKL frees it at exit
             pass
 
     def __del__(self) -> None:  # MKL keeps the factors outside Python's heap
-        if getattr(self, "_solver", None) is not None and getattr(self, "_pattern", None) is not None:
+        try:
             self._release()
+        except Exception:  # interpreter shutdown
+            pass
 
     def solve(self, matrix, rhs, x0=None, change=MatrixChange.AUTO, hints=None):
         change = MatrixChange(change)
@@ -199,15 +221,18 @@ class PardisoSolver(LinearSolver):
         same_pattern = (self._pattern is not None and A.shape[0] == self._pattern[0].size - 1
                         and np.array_equal(A.indptr, self._pattern[0])
                         and np.array_equal(A.indices, self._pattern[1]))
-        same_values = same_pattern and (change is MatrixChange.NONE
-                                        or (change is MatrixChange.AUTO and np.array_equal(A.data, self._data)))
+        same_values = same_pattern and self._data is not None and (
+            change is MatrixChange.NONE or (change is MatrixChange.AUTO and np.array_equal(A.data, self._data)))
         analysed = False
         if not same_pattern:
+            self._pattern, self._data = None, None  # valid again only once the phases succeed
+            self._allocated = True
             self._call(PardisoPhase.ANALYSIS, A, np.zeros(A.shape[0]))
             self._pattern = (A.indptr.copy(), A.indices.copy())
             self.analyses += 1
             analysed = True
         if not same_values:
+            self._data = None
             self._call(PardisoPhase.FACTORISE, A, np.zeros(A.shape[0]))
             self._data = A.data.copy()
             self.factorisations += 1
