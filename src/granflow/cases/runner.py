@@ -430,7 +430,9 @@ class CaseRun:
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
                        "max_cells_negative_Z": tot.max_negative_Z},
             "linear_solver": {"name": sim.model.linear_solver_name,
-                              "krylov_iterations": tot.linear_iterations},
+                              "krylov_iterations": tot.linear_iterations,
+                              # solves PARDISO handed to SuperLU (residual check; counted since this process started)
+                              "fallbacks": int(getattr(sim.model.linear_solver, "fallbacks", 0))},
             "closure": closure.describe(),
             "resolution": {"nx": g.nx, "nz": g.nz, "dx_m": g.dx, "dz_m": g.dz},
             "case_diagnostics": self.case.diagnostics(sim, cfg),
