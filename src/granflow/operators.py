@@ -414,3 +414,24 @@ class Operators:
                 f"p must have shape {g.cell_shape} or ({g.n_cells},), got {a.shape}"
             )
         return self.grad @ a.ravel()
+
+
+def product_pairs(B: sp.spmatrix, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All ``(key = k n + l, row r, B_rk B_rl)`` over pairs of non-zeros of each row of ``B``:
+    the contributions of ``B^T diag(c) B``, vectorised over rows (loops only over the at most
+    ``max_nnz_per_row^2`` pair positions). ``n`` is the number of columns of ``B``. Used to fill
+    products such as the viscous block and the pore-gas operator on a fixed pattern, as a linear
+    map of ``c`` (``physics.momentum.SaddleAssembler``, ``physics.pore_pressure``)."""
+    B = sp.csr_matrix(B)
+    B.eliminate_zeros()
+    B.sort_indices()
+    counts = np.diff(B.indptr)
+    keys, rows, vals = [], [], []
+    for a in range(int(counts.max(initial=0))):
+        for b in range(int(counts.max(initial=0))):
+            r = np.flatnonzero(counts > max(a, b))
+            ia, ib = B.indptr[r] + a, B.indptr[r] + b
+            keys.append(B.indices[ia].astype(np.int64) * n + B.indices[ib])
+            rows.append(r)
+            vals.append(B.data[ia] * B.data[ib])
+    return np.concatenate(keys), np.concatenate(rows), np.concatenate(vals)

@@ -47,7 +47,7 @@ import scipy.sparse as sp
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side
-from granflow.operators import GHOST_SIGN, Operators
+from granflow.operators import GHOST_SIGN, Operators, product_pairs
 
 QUARTER = 0.25
 HALF = 0.5
@@ -199,25 +199,6 @@ def momentum_rhs(ops: Operators, vel, rho_f, dt: float, body_force) -> np.ndarra
     return np.asarray(rho_f) * (np.asarray(vel) / dt - upwind_advection(ops, vel)) + body_force
 
 
-def _row_pairs(B: sp.spmatrix, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """All ``(key = k n + l, row r, B_rk B_rl)`` over pairs of non-zeros of each row of ``B``:
-    the contributions of ``B^T diag(c) B``, vectorised over rows (loops only over the at most
-    ``max_nnz_per_row^2`` pair positions)."""
-    B = sp.csr_matrix(B)
-    B.eliminate_zeros()
-    B.sort_indices()
-    counts = np.diff(B.indptr)
-    keys, rows, vals = [], [], []
-    for a in range(int(counts.max(initial=0))):
-        for b in range(int(counts.max(initial=0))):
-            r = np.flatnonzero(counts > max(a, b))
-            ia, ib = B.indptr[r] + a, B.indptr[r] + b
-            keys.append(B.indices[ia].astype(np.int64) * n + B.indices[ib])
-            rows.append(r)
-            vals.append(B.data[ia] * B.data[ib])
-    return np.concatenate(keys), np.concatenate(rows), np.concatenate(vals)
-
-
 class GasBorder(NamedTuple):
     """The pore-pressure border of the saddle-point matrix (:meth:`SaddleAssembler.saddle`)."""
 
@@ -247,8 +228,8 @@ class SaddleAssembler:
         n = g.n_unknowns
         self.ops = ops
         self.n = n
-        kc, rc, vc = _row_pairs(ops.ec, n)
-        kn, rn, vn = _row_pairs(ops.en, n)
+        kc, rc, vc = product_pairs(ops.ec, n)
+        kn, rn, vn = product_pairs(ops.en, n)
         kd = np.arange(n, dtype=np.int64) * (n + 1)
         keys = np.unique(np.concatenate([kc, kn, kd]))
         self._rows = (keys // n).astype(np.int64)

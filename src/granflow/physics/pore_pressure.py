@@ -65,7 +65,7 @@ from granflow.gas import GasLaw  # noqa: F401  (re-exported: the solver's gas la
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.materials import Material
-from granflow.operators import Operators
+from granflow.operators import Operators, product_pairs
 
 PHI_FLOOR = 1e-3
 """Lower clip of phi in kappa(phi) [-] (kappa diverges as phi -> 0)."""
@@ -196,10 +196,8 @@ class _DiffusionPattern:
     step fills an array instead of multiplying sparse matrices (the SaddleAssembler's idea)."""
 
     def __init__(self, ops: Operators) -> None:
-        from granflow.physics.momentum import _row_pairs
-
         n = ops.grid.n_cells
-        k, r, v = _row_pairs(ops.grad, n)
+        k, r, v = product_pairs(ops.grad, n)
         kd = np.arange(n, dtype=np.int64) * (n + 1)
         keys = np.unique(np.concatenate([k, kd]))
         self.n = n
