@@ -39,7 +39,8 @@ GRID_INDEPENDENCE = 2.0    # max/min of the mean iterations over the three resol
 
 def dp_model(nx: int, nz: int, Lx: float, Lz: float) -> Model:
     clo = make_closure("drucker_prager", material=MATERIAL, delta_deg=26.74)
-    return Model(Grid(nx=nx, nz=nz, Lx=Lx, Lz=Lz), clo)
+    # systems on the whole grid (the AMG's velocity vector): no velocity band
+    return Model(Grid(nx=nx, nz=nz, Lx=Lx, Lz=Lz), clo, ambient={"velocity_band": 0})
 
 
 # --------------------------------------------------------------------------------------------

@@ -81,6 +81,7 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
     DEFAULT_PHI_TOLERANCE,
     INTERFACE_RADIUS,
     PHI_FLOOR,
+    PHI_TRACE,
     VISCOUS_ADDITION_FACTOR,
     AmbientParams,
     Coefficients,
@@ -232,6 +233,10 @@ class Model:
             raise GranflowInputError("linear_solver 'pardiso' (numerics.linear_solver) needs the optional "
                                      "dependency pypardiso with Intel MKL: pip install 'granflow[fast]' "
                                      "(x86-64 only); or use 'auto' or 'direct'")
+        self.velocity_band = (None if choice is LinearSolverChoice.AMG or not self.ambient.velocity_band
+                              else self.ambient.velocity_band)
+        """The velocity band in use [cells] (:attr:`AmbientParams.velocity_band`; None: off, or the AMG)."""
+        self._face_cells = abs(self.ops.cell_to_face).tocsr()
         self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
                               else make_linear_solver(choice.value) if choice is LinearSolverChoice.PARDISO
                               else make_linear_solver(choice.value, grid=grid))
@@ -258,6 +263,20 @@ class Model:
         phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
         ambient = phi < self.ambient.phi_c
         return maximum_filter(ambient, size=2 * radius + 1, mode=self._filter_mode()) & ~ambient
+
+    def velocity_region(self, phi) -> np.ndarray | None:
+        """Flat mask (n_unknowns,) of the velocity unknowns solved in a step from ``phi``: the
+        faces of the cells within :attr:`velocity_band` cells of grains
+        (``phi > PHI_TRACE phi_max``, :attr:`AmbientParams.velocity_band`); None = all of them
+        (no band, or no grains)."""
+        r = self.velocity_band
+        if r is None:
+            return None
+        grains = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape) > PHI_TRACE * self.material.phi_max
+        mode = ("wrap", "constant") if self.grid.periodic_x else "constant"
+        band = maximum_filter(grains, size=2 * r + 1, mode=mode)
+        faces = (self._face_cells @ band.ravel().astype(float)) > 0.0
+        return faces if faces.any() and not faces.all() else None
 
     def effective_packing(self, phi) -> np.ndarray:
         """Flat phi at which the closure is evaluated: phi_loc near the ambient (NUMERICS.md
@@ -402,6 +421,9 @@ class Model:
         if self.linear_solver is not None:
             self.linear_solver.begin_step()
         n = g.n_unknowns
+        keep = self.velocity_region(phi)  # velocity unknowns of this step (None: all)
+        region = None if keep is None else self.assembler.region(keep)
+        nv = n if region is None else region.size
         floor = np.sqrt(n) * self.eps * g.Lz
         changes, rel, sweeps, n_negz, krylov = 0, np.inf, 0, 0, 0
         converged = False
@@ -418,11 +440,12 @@ class Model:
                                         f"dense cells: {coef.nonfinite}", sweeps, tim)
             n_negz = max(n_negz, coef.n_negative_Z)
             eta_n = ops.cell_to_node @ coef.eta_c
-            a_data = self.assembler.velocity_data(rho_f / dt + drag, coef.eta_c, eta_n)
+            a_data = self.assembler.velocity_data(rho_f / dt + drag, coef.eta_c, eta_n, region)
             act = dense & ~free
             punk = dense if self._stable_pattern else act  # pressure unknowns (saddle ``unknowns``)
-            K = self.assembler.saddle(a_data, act, coef.C, border, unknowns=punk)
-            rhs = np.concatenate([rhs_u, -np.where(act, coef.b, 0.0)[punk]] + rhs_gas)
+            K = self.assembler.saddle(a_data, act, coef.C, border, unknowns=punk, velocity=region)
+            rhs = np.concatenate([rhs_u if keep is None else rhs_u[keep],
+                                  -np.where(act, coef.b, 0.0)[punk]] + rhs_gas)
             t1 = time.perf_counter()
             tim["assembly"] += t1 - t0
             with warnings.catch_warnings():
@@ -432,7 +455,8 @@ class Model:
                         sol = spla.spsolve(K, rhs)
                     else:
                         m_unk = int(np.count_nonzero(punk))
-                        x0 = np.concatenate([u_k, np.where(act, p_k, 0.0)[punk], np.zeros(K.shape[0] - n - m_unk)])
+                        x0 = np.concatenate([u_k if keep is None else u_k[keep], np.where(act, p_k, 0.0)[punk],
+                                             np.zeros(K.shape[0] - nv - m_unk)])
                         sol, info = self.linear_solver.solve(
                             K, rhs, x0=x0, hints=SaddleHints(mass=rho_f / dt + drag, viscosity=coef.eta_c[act]))
                         krylov += int(info.iterations)
@@ -442,12 +466,16 @@ class Model:
             tim["solve"] += time.perf_counter() - t1
             if not np.all(np.isfinite(sol)):
                 return self._failed(dt, "non-finite solution of the linear system", sweeps, tim)
-            u_new = sol[:n]
+            if keep is None:
+                u_new = sol[:n]
+            else:
+                u_new = np.zeros(n)
+                u_new[keep] = sol[:nv]
             p_new = np.zeros(g.n_cells)
             m = int(np.count_nonzero(punk))
-            p_new[punk] = sol[n:n + m]  # 0 in the free cells among the unknowns
+            p_new[punk] = sol[nv:nv + m]  # 0 in the free cells among the unknowns
             if gas_sys is not None:
-                p_f_new = gas_sys.expand(sol[n + m:])
+                p_f_new = gas_sys.expand(sol[nv + m:])
             eta_last = (coef.eta_c, eta_n)
             div_u = ops.div @ u_new
             to_free = act & (p_new < 0.0)

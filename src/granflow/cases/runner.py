@@ -432,7 +432,9 @@ class CaseRun:
             "linear_solver": {"name": sim.model.linear_solver_name,
                               "krylov_iterations": tot.linear_iterations,
                               # solves PARDISO handed to SuperLU (residual check; counted since this process started)
-                              "fallbacks": int(getattr(sim.model.linear_solver, "fallbacks", 0))},
+                              "fallbacks": int(getattr(sim.model.linear_solver, "fallbacks", 0)),
+                              # cells around the grains where the velocity is solved (0: everywhere)
+                              "velocity_band_cells": sim.model.velocity_band or 0},
             "closure": closure.describe(),
             "resolution": {"nx": g.nx, "nz": g.nz, "dx_m": g.dx, "dz_m": g.dz},
             "case_diagnostics": self.case.diagnostics(sim, cfg),

@@ -208,6 +208,27 @@ class GasBorder(NamedTuple):
     """(n_wet, n_wet): the gas rows' own block, already scaled (``-M_wet/p_atm``)."""
 
 
+class VelocityRegion(NamedTuple):
+    """The velocity unknowns kept in the saddle-point system of one step
+    (:meth:`SaddleAssembler.region`); the others are ``u = 0`` and are not unknowns."""
+
+    mask: np.ndarray
+    """bool (n_unknowns,): kept velocity unknowns."""
+    renum: np.ndarray
+    """int (n_unknowns,): new index of each kept unknown, -1 for the others."""
+    a_keep: np.ndarray
+    """int: entries of the velocity block's fixed pattern whose row and column are kept."""
+    rows: np.ndarray
+    cols: np.ndarray
+    """Renumbered rows and columns of those entries."""
+    size: int
+    """Number of kept velocity unknowns."""
+    pc: sp.csr_matrix
+    pn: sp.csr_matrix
+    diag: np.ndarray
+    """The maps of :meth:`SaddleAssembler.velocity_data` restricted to the kept entries."""
+
+
 class SaddleAssembler:
     """Fast assembly of the (u, p) saddle-point matrix with a fixed sparsity pattern.
 
@@ -244,26 +265,49 @@ class SaddleAssembler:
         self._g_cols = gc.col.astype(np.int64)
         self._g_vals = gc.data
 
-    def velocity_data(self, rho_over_dt, eta_c, eta_n) -> np.ndarray:
-        """CSR data of ``A`` in the fixed pattern (see :meth:`velocity_matrix`)."""
-        data = self._pc @ np.asarray(eta_c, dtype=float) + self._pn @ (self._wn * np.asarray(eta_n))
-        data[self._diag] += rho_over_dt
+    def velocity_data(self, rho_over_dt, eta_c, eta_n, region: VelocityRegion | None = None) -> np.ndarray:
+        """CSR data of ``A`` in the fixed pattern (see :meth:`velocity_matrix`); with ``region``
+        only its kept entries (``region.a_keep``; ``rho_over_dt`` is still given on every
+        velocity unknown)."""
+        pc, pn, diag = (self._pc, self._pn, self._diag) if region is None else (region.pc, region.pn, region.diag)
+        data = pc @ np.asarray(eta_c, dtype=float) + pn @ (self._wn * np.asarray(eta_n))
+        rho_over_dt = np.asarray(rho_over_dt, dtype=float)
+        data[diag] += rho_over_dt if region is None or rho_over_dt.ndim == 0 else rho_over_dt[region.mask]
         return data
 
     def velocity_matrix(self, data) -> sp.csr_matrix:
         """``A`` as a CSR matrix from :meth:`velocity_data`."""
         return sp.csr_matrix((data, (self._rows, self._cols)), shape=(self.n, self.n))
 
-    def _grad_columns(self, mask, offset: int):
-        """Triplets of ``Grad[:, mask]`` with the columns renumbered from ``offset``."""
+    def region(self, mask) -> VelocityRegion:
+        """The restriction of the saddle-point system to the velocity unknowns of ``mask``
+        (bool, (n_unknowns,)); pass it as ``saddle(..., velocity=region)``."""
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != (self.n,):
+            raise GranflowInputError(f"region: mask must have shape ({self.n},), got {mask.shape}")
+        size = int(np.count_nonzero(mask))
+        renum = np.full(self.n, -1, dtype=np.int64)
+        renum[mask] = np.arange(size)
+        a_keep = np.flatnonzero(mask[self._rows] & mask[self._cols])
+        return VelocityRegion(mask=mask, renum=renum, a_keep=a_keep, rows=renum[self._rows[a_keep]],
+                              cols=renum[self._cols[a_keep]], size=size, pc=self._pc[a_keep],
+                              pn=self._pn[a_keep], diag=np.searchsorted(a_keep, self._diag[mask]))
+
+    def _grad_columns(self, mask, offset: int, velocity: VelocityRegion | None = None):
+        """Triplets of ``Grad[:, mask]`` with the columns renumbered from ``offset`` (and the
+        rows restricted to, and renumbered in, ``velocity``)."""
         idx = np.flatnonzero(mask)
         renum = np.full(mask.size, -1, dtype=np.int64)
         renum[idx] = offset + np.arange(idx.size)
         keep = mask[self._g_cols]
-        return self._g_rows[keep], renum[self._g_cols[keep]], self._g_vals[keep], idx
+        rows = self._g_rows
+        if velocity is not None:
+            keep &= velocity.mask[rows]
+            rows = velocity.renum[rows]
+        return rows[keep], renum[self._g_cols[keep]], self._g_vals[keep], idx
 
     def saddle(self, a_data, active, C, border: GasBorder | None = None,
-               unknowns=None) -> sp.csc_matrix:
+               unknowns=None, velocity: VelocityRegion | None = None) -> sp.csc_matrix:
         """``[[A, Grad_act], [Grad_act^T, -diag(C_act)]]``, pressure unknowns = active cells,
         optionally bordered by the pore-pressure block (module docstring).
 
@@ -283,24 +327,34 @@ class SaddleAssembler:
             ``Grad`` entries as stored zeros, so the sparsity pattern depends on ``unknowns``
             only: a solver that keeps its symbolic analysis while the pattern is unchanged
             (:mod:`granflow.solvers.pardiso`) then re-uses it when the active set changes.
+        velocity : VelocityRegion, optional
+            Keep only these velocity unknowns (:meth:`region`; the others are ``u = 0``): the
+            velocity block is ``A[kept][:, kept]`` and the first ``velocity.size`` unknowns are
+            the kept velocities in their original order. Default: all of them.
         """
         n = self.n
+        rows_a, cols_a = self._rows, self._cols
+        if velocity is not None:
+            a_data = np.asarray(a_data)
+            if a_data.size != velocity.a_keep.size:  # data of the whole pattern
+                a_data = a_data[velocity.a_keep]
+            rows_a, cols_a, n = velocity.rows, velocity.cols, velocity.size
         active = np.asarray(active, dtype=bool)
         unknowns = active if unknowns is None else np.asarray(unknowns, dtype=bool)
         if np.any(active & ~unknowns):
             raise GranflowInputError("saddle: every active cell must be a pressure unknown")
-        gr, gp, gv, idx = self._grad_columns(unknowns, n)
+        gr, gp, gv, idx = self._grad_columns(unknowns, n, velocity)
         m = idx.size
         diag = n + np.arange(m)
         on = active[idx]
         if not on.all():
             gv = np.where(on[gp - n], gv, 0.0)
-        rows = [self._rows, gr, gp, diag]
-        cols = [self._cols, gp, gr, diag]
+        rows = [rows_a, gr, gp, diag]
+        cols = [cols_a, gp, gr, diag]
         vals = [a_data, gv, gv, np.where(on, -np.asarray(C, dtype=float)[idx], -1.0)]
         size = n + m
         if border is not None:
-            fr, fp, fv, widx = self._grad_columns(np.asarray(border.wet, dtype=bool), size)
+            fr, fp, fv, widx = self._grad_columns(np.asarray(border.wet, dtype=bool), size, velocity)
             blk = sp.coo_matrix(border.block)
             if blk.shape != (widx.size, widx.size):
                 raise GranflowInputError(f"border block shape {blk.shape} != ({widx.size}, {widx.size})")

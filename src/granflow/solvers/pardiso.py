@@ -91,12 +91,21 @@ recursive search)."""
 
 @functools.cache
 def _mkl_runtime() -> str | None:
-    """Path of the MKL runtime (searched once per process), or None if pypardiso or MKL is missing."""
+    """Path of the MKL runtime (searched once per process), or None if pypardiso or MKL is missing.
+
+    ``import pypardiso`` builds a module-level solver, which searches ``sys.prefix`` recursively
+    (0.8 s) unless the environment variable points at the runtime: it is set for the import."""
+    quick = sorted((p for pat in _MKL_RT_GLOBS for p in glob.glob(os.path.join(sys.prefix, pat))), key=len)
+    saved = os.environ.get(_MKL_RT_VARIABLE)
+    if quick and saved is None:
+        os.environ[_MKL_RT_VARIABLE] = quick[0]
     try:
         import pypardiso
-    except ImportError:
+    except Exception:  # ImportError, or the module-level solver found no loadable runtime
         return None
-    quick = sorted((p for pat in _MKL_RT_GLOBS for p in glob.glob(os.path.join(sys.prefix, pat))), key=len)
+    finally:
+        if saved is None:
+            os.environ.pop(_MKL_RT_VARIABLE, None)
     for path in [*quick, None]:
         saved = os.environ.get(_MKL_RT_VARIABLE)
         if path is not None and saved is None:
