@@ -108,6 +108,51 @@ def test_reuse_by_change_kind(systems):
     assert (solver.analyses, solver.factorisations) == (1, 1)
 
 
+def test_symmetric_type_for_the_model_systems_and_unsymmetric_otherwise(systems):
+    """The Model's saddle systems are exactly symmetric: solved as symmetric indefinite (upper
+    triangle); an unsymmetric matrix, or unsymmetric values in the same pattern, go through the
+    unsymmetric type; every answer agrees with SuperLU."""
+    from granflow.solvers.pardiso import MatrixType
+
+    K, b = systems[0]
+    K = sp.csr_matrix(K)
+    solver = make_linear_solver("pardiso")
+    x, _ = solver.solve(K, b)
+    assert solver.matrix_type is MatrixType.SYMMETRIC_INDEFINITE
+    assert rel(x, spla.spsolve(sp.csc_matrix(K), b)) < LU_AGREEMENT
+    # same pattern, one off-diagonal pair made unsymmetric: analysed again as unsymmetric
+    U = K.copy()
+    U.sort_indices()
+    row = 0
+    j = U.indptr[row] + int(np.flatnonzero(U.indices[U.indptr[row]:U.indptr[row + 1]] != row)[0])
+    U.data[j] *= 1.5
+    x, info = solver.solve(U, b)
+    assert info.rebuilt and solver.matrix_type is MatrixType.UNSYMMETRIC and solver.analyses == 2
+    assert rel(x, spla.spsolve(sp.csc_matrix(U), b)) < LU_AGREEMENT
+    # symmetric values again in that pattern: refactorised (unsymmetric type, valid for any values)
+    x, info = solver.solve(K, b)
+    assert not info.rebuilt and rel(x, spla.spsolve(sp.csc_matrix(K), b)) < LU_AGREEMENT
+    solver.begin_step()  # a new analysis picks the symmetric type again
+    solver.solve(K, b)
+    assert solver.matrix_type is MatrixType.SYMMETRIC_INDEFINITE
+    # a stored zero on the diagonal is kept in the triangle (PARDISO needs every diagonal entry)
+    D = sp.csr_matrix(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    D.setdiag(0.0)
+    assert D.nnz == 4
+    x, _ = make_linear_solver("pardiso").solve(D, np.array([1.0, 2.0]))
+    np.testing.assert_allclose(x, [2.0, 1.0], rtol=1e-14)
+
+
+def test_small_systems_run_on_one_thread_and_match_the_threaded_solve(systems):
+    K, b = systems[-1]
+    one = make_linear_solver("pardiso")  # default: below threaded_min_unknowns
+    many = make_linear_solver("pardiso", threaded_min_unknowns=0)
+    x1, _ = one.solve(K, b)
+    x2, _ = many.solve(K, b)
+    assert one._single_thread and not many._single_thread
+    assert rel(x1, x2) < 1e-12
+
+
 def test_singular_matrix_is_an_error():
     A = sp.csr_matrix(np.array([[1.0, 2.0, 0.0], [2.0, 4.0, 0.0], [0.0, 0.0, 1.0]]))
     with pytest.raises(LinearSolverError, match="pardiso"):
@@ -127,7 +172,7 @@ def test_result_independent_of_the_thread_count(tmp_path, systems):
         import numpy as np, scipy.sparse as sp
         from granflow.solvers import make_linear_solver
         K = sp.load_npz({str(tmp_path / 'K.npz')!r}); b = np.load({str(tmp_path / 'b.npy')!r})
-        x, _ = make_linear_solver("pardiso").solve(K, b)
+        x, _ = make_linear_solver("pardiso", threaded_min_unknowns=0).solve(K, b)
         np.save({str(tmp_path)!r} + "/x_" + __import__("os").environ["MKL_NUM_THREADS"] + ".npy", x)
     """)
     for threads in ("1", "2"):

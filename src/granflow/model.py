@@ -362,9 +362,13 @@ class Model:
         """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2).
 
         The closure is evaluated at ``I_e = I(sqrt(|S|^2 + eps^2), p_k + delta_p)``: the
-        inertial number of the regularised strain rate, finite and > 0 everywhere.
+        inertial number of the regularised strain rate, finite and > 0 everywhere. Only the
+        dense cells are evaluated: the ambient gets ``eta_a`` and ``b = C = 0`` (no row).
         """
         c = self.closure
+        dense = np.asarray(dense, dtype=bool)
+        idx = np.flatnonzero(dense)
+        phi_e, p_k, S = (np.asarray(x, dtype=float)[idx] for x in (phi_e, p_k, S))
         p_e = np.maximum(p_k, 0.0) + self.delta_p
         S_reg = np.sqrt(S * S + self.eps * self.eps)
         I_e = self.material.inertial_number(S_reg, p_e)
@@ -377,10 +381,13 @@ class Model:
             live = fac > 0  # fac = 0: infinitely stiff relaxation, the constraint is div u = 0
             b = np.where(live, fac * (shear + dshear), 0.0)
             C = np.where(live, fac * (c.compaction_coefficient(phi_e) / np.sqrt(p_e) + dshear / p_e), 0.0)
-        bad = {name: int(np.count_nonzero(dense & ~np.isfinite(v))) for name, v in
-               (("Z", Z), ("b", b), ("C", C))}
-        eta = np.where(dense, eta + self.ambient.background_viscosity, self.ambient.eta_a)
-        return Coefficients(eta_c=eta, b=b, C=C, n_negative_Z=int(np.count_nonzero(dense & (Z < 0))),
+        bad = {name: int(np.count_nonzero(~np.isfinite(v))) for name, v in (("Z", Z), ("b", b), ("C", C))}
+        n = dense.size
+        eta_c = np.full(n, self.ambient.eta_a)
+        eta_c[idx] = eta + self.ambient.background_viscosity
+        b_c, C_c = np.zeros(n), np.zeros(n)
+        b_c[idx], C_c[idx] = b, C
+        return Coefficients(eta_c=eta_c, b=b_c, C=C_c, n_negative_Z=int(np.count_nonzero(Z < 0)),
                             nonfinite={k: v for k, v in bad.items() if v})
 
     # --- one step -----------------------------------------------------------------------------

@@ -13,15 +13,20 @@ system (one core): analysis 57 ms (minimum degree) / 132 ms (METIS), numerical f
 80-90 ms, solve 6 ms (benchmarks/linear_solvers.py, benchmarks/README.md).
 
 Interface: :class:`PardisoSolver` is the registry's ``"pardiso"``; :func:`pardiso_available`
-says whether the MKL runtime can be loaded. The matrix is passed as CSR with sorted indices
-(matrix type 11, real unsymmetric, with MKL's default pivoting, scaling and matching). The
-result does not depend on the number of MKL threads beyond round-off (tests/test_pardiso.py).
+says whether the MKL runtime can be loaded. The matrix is passed as CSR with sorted indices: its
+upper triangle as real symmetric indefinite (type -2) when it is exactly symmetric with a stored
+diagonal (the Model's saddle systems; ~2x cheaper factorisation), else whole as real unsymmetric
+(type 11); scaling and weighted matching on. Systems below ``threaded_min_unknowns`` run on one
+thread (MKL's threads lose there, and collapse when another process shares the cores); the
+threaded ones use MKL's reproducibility mode. The result does not depend on the number of MKL
+threads (tests/test_pardiso.py).
 
 Note: PARDISO's phases are reached through ``pypardiso.PyPardisoSolver._call_pardiso`` (its
 public ``solve`` always re-analyses a new matrix), hence the pin ``pypardiso < 0.5``.
 """
 from __future__ import annotations
 
+import ctypes
 import functools
 import glob
 import os
@@ -56,16 +61,36 @@ class PardisoOrdering(str, Enum):
 
 
 _ORDERING_IPARM = {PardisoOrdering.MINIMUM_DEGREE: 0, PardisoOrdering.METIS: 2}
-_MATRIX_TYPE = 11
-"""Real unsymmetric (the saddle systems are symmetric indefinite; type -2 was 3x slower)."""
+class MatrixType(int, Enum):
+    """PARDISO matrix types (``mtype``) used here."""
+
+    UNSYMMETRIC = 11
+    """Real unsymmetric: any matrix (the full CSR is passed)."""
+    SYMMETRIC_INDEFINITE = -2
+    """Real symmetric indefinite: the upper triangle is passed. Used when the matrix is exactly
+    symmetric with every diagonal entry stored (the saddle systems of the Model, whose gas rows
+    are scaled to keep the symmetry): on the banded Lagree systems its factorisation is 1.8x
+    (2.7e3 unknowns) to 2x (1.1e4) faster than type 11, measured on one thread."""
+
+
 _IPARM_USER = 1
 """iparm(1) = 1: the iparm array is filled by the caller."""
-_IPARM_SETTINGS = {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1}
-"""1-based iparm entries set for type 11: MKL's documented defaults for this type (10 = 13: pivot
-perturbation 1e-13; 11 = 13 = 1: scaling and weighted matching), except 8 = 2, up to two steps of
-iterative refinement (MKL's default 0 refines only after perturbed pivots)."""
+_IPARM_SETTINGS = {
+    MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1},
+    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 8: 2, 10: 8, 11: 1, 13: 1},
+}
+"""1-based iparm entries set per matrix type: MKL's documented defaults (10: pivot perturbation
+1e-13 / 1e-8) with scaling and weighted matching on (11 = 13 = 1; MKL recommends them for
+saddle-point symmetric indefinite systems, whose residual is 1e-10 without them), and 8 = 2, up to
+two steps of iterative refinement (MKL's default 0 refines only after perturbed pivots)."""
 DEFAULT_REPRODUCIBLE_THREADS = 4
 """iparm(34) by default (:attr:`PardisoSolver.Parameters.reproducible_threads`)."""
+DEFAULT_THREADED_MIN_UNKNOWNS = 100_000
+"""Systems with fewer unknowns are solved on one thread by default
+(:attr:`PardisoSolver.Parameters.threaded_min_unknowns`). Measured on the 2-core machine: the
+banded Lagree systems (2.7e3 unknowns) factorise in 3.1 ms on one thread and 3.5 ms on two, and
+in 110 ms on two when another process runs on the second core (MKL's threads wait for the busy
+core); at 3.3e4 unknowns two threads gain ~15 %."""
 _EMPTY_MATRIX = sp.csr_matrix((0, 0))
 _EMPTY_RHS = np.zeros(0)
 """Arguments of the release phase, built once (``__del__`` may run at interpreter shutdown)."""
@@ -125,6 +150,18 @@ def pardiso_available() -> bool:
     return _mkl_runtime() is not None
 
 
+def _thread_local_setter(libmkl):
+    """``MKL_Set_Num_Threads_Local`` of the loaded runtime (n > 0: this thread's MKL calls use n
+    threads; 0: back to the global setting), or None if the runtime lacks it."""
+    try:
+        fn = libmkl.MKL_Set_Num_Threads_Local
+    except AttributeError:
+        return None
+    fn.restype = ctypes.c_int
+    fn.argtypes = [ctypes.c_int]
+    return fn
+
+
 def _new_pypardiso(mtype: int):
     """A ``pypardiso.PyPardisoSolver`` pointed at the runtime found by :func:`_mkl_runtime`
     (the environment variable is set only for the constructor and restored afterwards)."""
@@ -137,6 +174,36 @@ def _new_pypardiso(mtype: int):
     finally:
         if saved is None:
             del os.environ[_MKL_RT_VARIABLE]
+
+
+def _is_symmetric(A: sp.csr_matrix) -> bool:
+    """``A`` (CSR, canonical) equals its transpose exactly, with every diagonal entry stored."""
+    T = A.tocsc()  # the CSR arrays of A^T, indices sorted
+    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)
+            and np.array_equal(T.data, A.data)):
+        return False
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    return int(np.count_nonzero(A.indices == rows)) == A.shape[0]
+
+
+class _UpperTriangle:
+    """The upper triangle (diagonal included) of a fixed CSR pattern: which entries, and its own
+    CSR pattern, so that every matrix of the pattern gives the same triangle pattern (stored
+    zeros kept, unlike ``scipy.sparse.triu``)."""
+
+    def __init__(self, shape, keep: np.ndarray, indptr: np.ndarray, indices: np.ndarray) -> None:
+        self.shape, self.keep, self.indptr, self.indices = shape, keep, indptr, indices
+
+    @classmethod
+    def of(cls, A: sp.csr_matrix) -> _UpperTriangle:
+        n = A.shape[0]
+        rows = np.repeat(np.arange(n), np.diff(A.indptr))
+        up = A.indices >= rows
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[up], minlength=n))])
+        return cls(A.shape, np.flatnonzero(up), indptr, A.indices[up])
+
+    def of_values(self, data: np.ndarray) -> sp.csr_matrix:
+        return sp.csr_matrix((data[self.keep], self.indices, self.indptr), shape=self.shape)
 
 
 @LINEAR_SOLVERS.register("pardiso")
@@ -161,16 +228,25 @@ class PardisoSolver(LinearSolver):
             is 2x cheaper on the 2-D saddle systems and the factorisation only ~10 % dearer) or
             ``"metis"`` (nested dissection).
         reproducible_threads : int
-            MKL's conditional numerical reproducibility (``iparm[33]``): with a value > 0 the
-            result is bit-for-bit the same for every thread count (``MKL_NUM_THREADS``) up to
-            it (measured: 1, 2, 3 threads with 4, tests/test_pardiso.py), so a run and its
-            restart agree on machines with other core counts. Default 4; 0 = off.
+            MKL's conditional numerical reproducibility (``iparm[33]``) for the threaded systems:
+            with a value > 0 the result is bit-for-bit the same for every thread count
+            (``MKL_NUM_THREADS``) up to it (measured: 1, 2, 3 threads with 4,
+            tests/test_pardiso.py), so a run and its restart agree on machines with other core
+            counts. Default 4; 0 = off. Costs ~15 % at 3e4 unknowns and ~40 % of analysis and
+            solve at 3e3, which is why the single-threaded systems do without it (one thread is
+            reproducible by construction).
+        threaded_min_unknowns : int
+            Systems smaller than this are solved on one thread (MKL's thread-local setting,
+            whatever ``MKL_NUM_THREADS`` says); larger ones use MKL's threads. Default
+            :data:`DEFAULT_THREADED_MIN_UNKNOWNS`; 0 = always threaded.
         """
 
         ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
                                           description="fill-reducing ordering of the analysis")
         reproducible_threads: int = Field(DEFAULT_REPRODUCIBLE_THREADS, ge=0, le=1024,
                                           description="MKL CNR mode thread count (0 = off)")
+        threaded_min_unknowns: int = Field(DEFAULT_THREADED_MIN_UNKNOWNS, ge=0,
+                                           description="smaller systems run on one thread")
 
     def __init__(self, params: Params) -> None:
         super().__init__(params)
@@ -183,16 +259,31 @@ class PardisoSolver(LinearSolver):
 
     def reset(self) -> None:
         self._release()
-        self._solver = _new_pypardiso(_MATRIX_TYPE)
-        for i, v in _IPARM_SETTINGS.items():
-            self._solver.set_iparm(i, v)
-        self._solver.set_iparm(2, _ORDERING_IPARM[PardisoOrdering(self.params.ordering)])
-        self._solver.set_iparm(34, int(self.params.reproducible_threads))
+        self._solver = _new_pypardiso(MatrixType.UNSYMMETRIC)
+        self._set_type(MatrixType.UNSYMMETRIC)
+        self._single_thread = False
+        """The current matrix is solved on one thread (decided at its analysis)."""
+        self._upper: _UpperTriangle | None = None
+        """Upper triangle of the current pattern when it is solved as symmetric."""
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
         self._data: np.ndarray | None = None
         self.analyses = 0
         self.factorisations = 0
         self.fallbacks = 0
+
+    def _set_type(self, mtype: MatrixType) -> None:
+        """Matrix type and its iparm settings (the handle holds no factorisation)."""
+        self._solver.mtype = int(mtype)
+        self._solver.iparm[:] = 0
+        for i, v in _IPARM_SETTINGS[mtype].items():
+            self._solver.set_iparm(i, v)
+        self._solver.set_iparm(2, _ORDERING_IPARM[PardisoOrdering(self.params.ordering)])
+        self._solver.set_iparm(34, int(self.params.reproducible_threads))
+
+    @property
+    def matrix_type(self) -> MatrixType:
+        """Matrix type of the current factorisation."""
+        return MatrixType(self._solver.mtype)
 
     def begin_step(self) -> None:
         """Forget the analysis (the memory is kept until the next one replaces it): its scaling and
@@ -204,10 +295,16 @@ class PardisoSolver(LinearSolver):
 
     def _call(self, phase: PardisoPhase, A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         self._solver.set_phase(int(phase))
+        local = _thread_local_setter(self._solver.libmkl) if self._single_thread else None
+        if local is not None:
+            local(1)
         try:
             return self._solver._call_pardiso(A, b)
         except Exception as err:  # pypardiso.PyPardisoError carries MKL's error code
             raise LinearSolverError(f"pardiso phase {int(phase)}: {err}") from err
+        finally:
+            if local is not None:
+                local(0)  # 0: back to MKL's global setting
 
     def _release(self) -> None:
         """Free MKL's memory of this handle (phase -1) if anything was allocated."""
@@ -239,21 +336,31 @@ class PardisoSolver(LinearSolver):
                         and np.array_equal(A.indices, self._pattern[1]))
         same_values = same_pattern and self._data is not None and (
             change is MatrixChange.NONE or (change is MatrixChange.AUTO and np.array_equal(A.data, self._data)))
+        if same_pattern and not same_values and self._upper is not None and not _is_symmetric(A):
+            same_pattern = False  # new values are not symmetric: analyse again as unsymmetric
         analysed = False
         if not same_pattern:
             self._pattern, self._data = None, None  # valid again only once the phases succeed
+            self._upper = _UpperTriangle.of(A) if _is_symmetric(A) else None
+            mtype = MatrixType.UNSYMMETRIC if self._upper is None else MatrixType.SYMMETRIC_INDEFINITE
+            if mtype is not self.matrix_type:
+                self._release()
+                self._set_type(mtype)
             self._allocated = True
-            self._call(PardisoPhase.ANALYSIS, A, np.zeros(A.shape[0]))
+            self._single_thread = A.shape[0] < self.params.threaded_min_unknowns
+            self._solver.set_iparm(34, 0 if self._single_thread else int(self.params.reproducible_threads))
+            self._call(PardisoPhase.ANALYSIS, self._stored(A), np.zeros(A.shape[0]))
             self._pattern = (A.indptr.copy(), A.indices.copy())
             self.analyses += 1
             analysed = True
+        M = self._stored(A)
         if not same_values:
             self._data = None
-            self._call(PardisoPhase.FACTORISE, A, np.zeros(A.shape[0]))
+            self._call(PardisoPhase.FACTORISE, M, np.zeros(A.shape[0]))
             self._data = A.data.copy()
             self.factorisations += 1
         t1 = time.perf_counter()
-        x = self._call(PardisoPhase.SOLVE, A, b)
+        x = self._call(PardisoPhase.SOLVE, M, b)
         t2 = time.perf_counter()
         if not np.all(np.isfinite(x)):
             raise LinearSolverError("pardiso: non-finite solution (singular matrix?)")
@@ -263,6 +370,10 @@ class PardisoSolver(LinearSolver):
             t2 = time.perf_counter()
         return x, SolveInfo(solver=self.name, iterations=0, residual=res, scaled_residual=res,
                             setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=analysed)
+
+    def _stored(self, A: sp.csr_matrix) -> sp.csr_matrix:
+        """What PARDISO is given: ``A``, or its upper triangle for the symmetric type."""
+        return A if self._upper is None else self._upper.of_values(A.data)
 
     def _fallback(self, A: sp.csr_matrix, b: np.ndarray, res_pardiso: float) -> tuple[np.ndarray, float]:
         """SuperLU on a system PARDISO solved inaccurately (see :data:`RESIDUAL_LIMIT`)."""
