@@ -159,7 +159,8 @@ class Model:
     linear_solver : LinearSolverChoice or str
         ``"direct"`` (default; SciPy's sparse LU), ``"pardiso"`` (MKL sparse LU, optional extra
         ``granflow[fast]``), ``"amg"`` (FGMRES + block AMG, ~O(N)) or ``"auto"`` (``pardiso`` if
-        installed, else ``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up and ``direct`` below).
+        installed, else ``direct`` with the velocity band on (its systems are small), else
+        ``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up and ``direct`` below).
         The chosen one is :attr:`linear_solver_name`.
     """
 
@@ -221,8 +222,9 @@ class Model:
         except ValueError:
             raise GranflowInputError(f"Model: unknown linear_solver {linear_solver!r}; expected one of "
                                      f"{[c.value for c in LinearSolverChoice]}") from None
-        if choice is LinearSolverChoice.AUTO:
+        if choice is LinearSolverChoice.AUTO:  # the banded systems are small: a direct solver
             choice = (LinearSolverChoice.PARDISO if pardiso_available()
+                      else LinearSolverChoice.DIRECT if self.ambient.velocity_band
                       else LinearSolverChoice.AMG if grid.n_unknowns + grid.n_cells >= AUTO_AMG_UNKNOWNS
                       else LinearSolverChoice.DIRECT)
         self.linear_solver_name = choice.value

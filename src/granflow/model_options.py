@@ -49,7 +49,9 @@ class LinearSolverChoice(str, Enum):
 
     AUTO = "auto"
     """``pardiso`` if its optional dependency is installed (``granflow[fast]``), else ``direct``
-    below :data:`AUTO_AMG_UNKNOWNS` unknowns and ``amg`` above."""
+    when the velocity band is on (:attr:`AmbientParams.velocity_band`, default: the banded
+    systems of a collapse are small; Lagree 128^2: 26 s with SuperLU), else ``direct`` below
+    :data:`AUTO_AMG_UNKNOWNS` unknowns and ``amg`` above."""
     DIRECT = "direct"
     """SciPy's sparse LU (SuperLU): exact, the reference; cost grows ~N^1.5."""
     AMG = "amg"

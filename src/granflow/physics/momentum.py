@@ -229,6 +229,43 @@ class VelocityRegion(NamedTuple):
     """The maps of :meth:`SaddleAssembler.velocity_data` restricted to the kept entries."""
 
 
+class _SaddleLayout:
+    """Sparsity pattern of one saddle-point matrix (:meth:`SaddleAssembler.saddle`) and the map
+    from the concatenated block values to its CSR data."""
+
+    def __init__(self, **fields) -> None:
+        self.__dict__.update(fields)
+
+    @classmethod
+    def build(cls, asm: SaddleAssembler, unknowns: np.ndarray, velocity: VelocityRegion | None,
+              border: GasBorder | None) -> _SaddleLayout:
+        n = asm.n if velocity is None else velocity.size
+        rows_a, cols_a = (asm._rows, asm._cols) if velocity is None else (velocity.rows, velocity.cols)
+        gr, gp, gv, idx = asm._grad_columns(unknowns, n, velocity)
+        m = idx.size
+        diag = n + np.arange(m)
+        rows = [rows_a, gr, gp, diag]
+        cols = [cols_a, gp, gr, diag]
+        size = n + m
+        fv, blk = None, None
+        if border is not None:
+            fr, fp, fv, widx = asm._grad_columns(np.asarray(border.wet, dtype=bool), size, velocity)
+            blk = sp.coo_matrix(border.block)
+            if blk.shape != (widx.size, widx.size):
+                raise GranflowInputError(f"border block shape {blk.shape} != ({widx.size}, {widx.size})")
+            rows += [fr, fp, size + blk.row.astype(np.int64)]
+            cols += [fp, fr, size + blk.col.astype(np.int64)]
+            size += widx.size
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        order = np.lexsort((cols, rows))
+        rows, cols = rows[order], cols[order]
+        if np.any((np.diff(rows) == 0) & (np.diff(cols) == 0)):
+            raise GranflowInputError("saddle: duplicate entries in the saddle-point pattern")
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=size))])
+        return cls(unknowns=unknowns.copy(), velocity=velocity, border=border, n=n, gp=gp, gv=gv,
+                   idx=idx, fv=fv, blk=blk, size=size, order=order, indptr=indptr, indices=cols)
+
+
 class SaddleAssembler:
     """Fast assembly of the (u, p) saddle-point matrix with a fixed sparsity pattern.
 
@@ -259,7 +296,10 @@ class SaddleAssembler:
         self._pc = sp.csr_matrix((vc, (np.searchsorted(keys, kc), rc)), shape=(nnz, g.n_cells))
         self._pn = sp.csr_matrix((vn, (np.searchsorted(keys, kn), rn)), shape=(nnz, g.n_nodes))
         self._diag = np.searchsorted(keys, kd)
+        self._row_ptr = np.searchsorted(self._rows, np.arange(n + 1))  # keys are sorted by row
         self._wn = np.asarray(ops.node_weights)
+        self._layout: _SaddleLayout | None = None
+        """Pattern of the last :meth:`saddle` (rebuilt when its unknowns, region or border change)."""
         gc = ops.grad.tocoo()
         self._g_rows = gc.row.astype(np.int64)
         self._g_cols = gc.col.astype(np.int64)
@@ -288,7 +328,12 @@ class SaddleAssembler:
         size = int(np.count_nonzero(mask))
         renum = np.full(self.n, -1, dtype=np.int64)
         renum[mask] = np.arange(size)
-        a_keep = np.flatnonzero(mask[self._rows] & mask[self._cols])
+        kept_rows = np.flatnonzero(mask)  # entries of the kept rows (contiguous per row), then kept columns
+        starts = self._row_ptr[kept_rows]
+        counts = self._row_ptr[kept_rows + 1] - starts
+        offsets = np.repeat(starts - (np.cumsum(counts) - counts), counts)
+        candidates = offsets + np.arange(int(counts.sum()))
+        a_keep = candidates[mask[self._cols[candidates]]]
         return VelocityRegion(mask=mask, renum=renum, a_keep=a_keep, rows=renum[self._rows[a_keep]],
                               cols=renum[self._cols[a_keep]], size=size, pc=self._pc[a_keep],
                               pn=self._pn[a_keep], diag=np.searchsorted(a_keep, self._diag[mask]))
@@ -307,7 +352,7 @@ class SaddleAssembler:
         return rows[keep], renum[self._g_cols[keep]], self._g_vals[keep], idx
 
     def saddle(self, a_data, active, C, border: GasBorder | None = None,
-               unknowns=None, velocity: VelocityRegion | None = None) -> sp.csc_matrix:
+               unknowns=None, velocity: VelocityRegion | None = None) -> sp.csr_matrix:
         """``[[A, Grad_act], [Grad_act^T, -diag(C_act)]]``, pressure unknowns = active cells,
         optionally bordered by the pore-pressure block (module docstring).
 
@@ -331,39 +376,29 @@ class SaddleAssembler:
             Keep only these velocity unknowns (:meth:`region`; the others are ``u = 0``): the
             velocity block is ``A[kept][:, kept]`` and the first ``velocity.size`` unknowns are
             the kept velocities in their original order. Default: all of them.
+
+        Returns a CSR matrix (sorted indices, no duplicates). Its pattern depends on
+        ``unknowns``, ``velocity`` and ``border`` only and is kept between calls: the Picard
+        sweeps of a step (same objects, same unknowns) only gather their values into it.
         """
-        n = self.n
-        rows_a, cols_a = self._rows, self._cols
-        if velocity is not None:
-            a_data = np.asarray(a_data)
-            if a_data.size != velocity.a_keep.size:  # data of the whole pattern
-                a_data = a_data[velocity.a_keep]
-            rows_a, cols_a, n = velocity.rows, velocity.cols, velocity.size
         active = np.asarray(active, dtype=bool)
         unknowns = active if unknowns is None else np.asarray(unknowns, dtype=bool)
         if np.any(active & ~unknowns):
             raise GranflowInputError("saddle: every active cell must be a pressure unknown")
-        gr, gp, gv, idx = self._grad_columns(unknowns, n, velocity)
-        m = idx.size
-        diag = n + np.arange(m)
-        on = active[idx]
-        if not on.all():
-            gv = np.where(on[gp - n], gv, 0.0)
-        rows = [rows_a, gr, gp, diag]
-        cols = [cols_a, gp, gr, diag]
-        vals = [a_data, gv, gv, np.where(on, -np.asarray(C, dtype=float)[idx], -1.0)]
-        size = n + m
+        a_data = np.asarray(a_data)
+        if velocity is not None and a_data.size != velocity.a_keep.size:  # data of the whole pattern
+            a_data = a_data[velocity.a_keep]
+        lay = self._layout
+        if not (lay is not None and lay.velocity is velocity and lay.border is border
+                and np.array_equal(lay.unknowns, unknowns)):
+            lay = self._layout = _SaddleLayout.build(self, unknowns, velocity, border)
+        on = active[lay.idx]
+        gv = lay.gv if on.all() else np.where(on[lay.gp - lay.n], lay.gv, 0.0)
+        vals = [a_data, gv, gv, np.where(on, -np.asarray(C, dtype=float)[lay.idx], -1.0)]
         if border is not None:
-            fr, fp, fv, widx = self._grad_columns(np.asarray(border.wet, dtype=bool), size, velocity)
-            blk = sp.coo_matrix(border.block)
-            if blk.shape != (widx.size, widx.size):
-                raise GranflowInputError(f"border block shape {blk.shape} != ({widx.size}, {widx.size})")
-            rows += [fr, fp, size + blk.row.astype(np.int64)]
-            cols += [fp, fr, size + blk.col.astype(np.int64)]
-            vals += [fv, fv, blk.data]
-            size += widx.size
-        return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(size, size))
+            vals += [lay.fv, lay.fv, lay.blk.data]
+        data = np.concatenate(vals)[lay.order]
+        return sp.csr_matrix((data, lay.indices, lay.indptr), shape=(lay.size, lay.size))
 
     def bordered(self, K: sp.spmatrix, col_u: sp.spmatrix, row_u: sp.spmatrix,
                  diag: sp.spmatrix) -> sp.csc_matrix:
