@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granflow.grid import Grid
+from granflow.physics.transport_kernel import advect_compiled, kernel_available
 
 HALF = 0.5
 POSITIVITY_CFL = 0.5
@@ -171,7 +172,7 @@ def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
     fx0, fz0 = fx, fz
     fx, fz = fx.copy(), fz.copy()
     cap = phi_max * (1.0 + BOUND_RTOL)
-    for _ in range(max(MAX_LIMITER_PASSES, grid.nx + grid.nz)):  # a pass settles one more donor
+    for _ in range(limiter_passes(grid)):  # a pass settles one more donor
         excess = phi - dt * flux_divergence(grid, fx, fz) - phi_max
         if not np.any(excess > cap - phi_max):
             break
@@ -195,7 +196,26 @@ def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
 
 
 def advect(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) -> TransportResult:
-    """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b).
+    """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b): the
+    compiled kernel (:mod:`granflow.physics.transport_kernel`) when Numba is installed, else the
+    NumPy reference :func:`advect_numpy` (same arguments and result, equal to round-off)."""
+    if not kernel_available():
+        return advect_numpy(grid, phi, vel, dt, phi_max)
+    u, w = face_velocities(grid, vel)
+    out, fx, fz, held = advect_compiled(phi, u, w, dt, grid.dx, grid.dz, phi_max,
+                                        (phi_max or 0.0) * (1.0 + BOUND_RTOL), grid.periodic_x,
+                                        limiter_passes(grid))
+    return TransportResult(phi=out, flux_x=fx, flux_z=fz, held_back=float(held))
+
+
+def limiter_passes(grid: Grid) -> int:
+    """Cap on the passes of :func:`limit_to_upper_bound` (:data:`MAX_LIMITER_PASSES`)."""
+    return max(MAX_LIMITER_PASSES, grid.nx + grid.nz)
+
+
+def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) -> TransportResult:
+    """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b); the
+    NumPy reference of :func:`advect`.
 
     Parameters
     ----------
@@ -217,6 +237,7 @@ def advect(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) -> Tra
     Examples
     --------
     >>> from granflow.grid import Grid
+from granflow.physics.transport_kernel import advect_compiled, kernel_available
     >>> g = Grid(nx=8, nz=2, Lx=1.0, Lz=0.25)
     >>> u = np.zeros(g.xface_shape); u[1:-1] = 1.0
     >>> vel = g.pack_velocity(u, np.zeros(g.zface_shape))
