@@ -325,10 +325,17 @@ class CaseRun:
                         "run.last_out_t": self._last_out_t})
         g = self.grid
         meta = {"case": self.config.case.name, "grid": [g.nx, g.nz, g.Lx, g.Lz],
-                "config_effective": self.config.to_toml(), "case_file": self.config.source_path}
+                "config_effective": self.config.to_toml(), "case_file": self.config.source_path,
+                **self._numerics_meta()}
         path = self.checkpoints.save(step, arrays, scalars, meta)
         self._last_ckpt_step = step
         return path
+
+    def _numerics_meta(self) -> dict:
+        """What decides the last bits of a step besides the case file: the linear solver ``auto``
+        resolved to on this machine, and the velocity band in use."""
+        model = self.sim.model
+        return {"linear_solver": model.linear_solver_name, "velocity_band": int(model.velocity_band or 0)}
 
     def _restore(self, path: Path) -> None:
         arrays, scalars, meta = load_checkpoint(path)
@@ -350,6 +357,11 @@ class CaseRun:
             self._last_out_t = float(scalars["run.last_out_t"])
         except (KeyError, GranflowInputError) as err:
             raise GranflowInputError(f"--restart {path}: not a checkpoint of this case ({err})") from None
+        for key, now in self._numerics_meta().items():
+            then = meta.get(key)
+            if then is not None and then != now:
+                logger.warning("--restart: the checkpoint was written with %s = %r, this run uses %r: "
+                               "it continues, but not bit for bit as the uninterrupted run would", key, then, now)
         max_steps = self.config.time.max_steps
         if max_steps is not None:
             self.sim.max_steps = max(max_steps - self.sim.state.step, 0)
