@@ -174,12 +174,12 @@ def test_restart_with_another_linear_solver_warns(tmp_path, capsys, caplog):
     ckpt = ["--set", "output.checkpoint_interval=5"]
     assert tiny(capsys, a, 5e-3, *ckpt, "--set", 'numerics.linear_solver="direct"')[0] == RunExit.COMPLETED
     _, _, meta = load_checkpoint(a / "checkpoints" / "checkpoint_00000005.npz")
-    assert meta["linear_solver"] == "direct" and meta["velocity_band"] == 3
+    assert meta["linear_solver"] == "direct" and meta["velocity_band"] == 10
     with caplog.at_level("WARNING", logger="granflow.cases.runner"):
         code, _, err = tiny(capsys, b, 8e-3, "--restart", a / "checkpoints" / "checkpoint_00000005.npz",
                             "--set", "numerics.ambient.velocity_band=0")
     assert code == RunExit.COMPLETED, err
-    assert "velocity_band = 3" in caplog.text and "not bit for bit" in caplog.text
+    assert "velocity_band = 10" in caplog.text and "not bit for bit" in caplog.text
 
 
 # --------------------------------------------------------------------------------------------

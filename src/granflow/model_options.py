@@ -28,9 +28,13 @@ INTERFACE_RADIUS = 2
 MIN_VELOCITY_BAND = 2
 """Smallest :attr:`AmbientParams.velocity_band` [cells]: a step moves grains by at most two cells
 (CFL < 1/2, two Runge-Kutta stages), so they never reach the faces held at rest."""
-DEFAULT_VELOCITY_BAND = 3
-"""Default :attr:`AmbientParams.velocity_band` [cells] (2 and 3 gave the same Lagree fronts and
-costs; 3 keeps the ambient freer around the grains)."""
+DEFAULT_VELOCITY_BAND = 10
+"""Default :attr:`AmbientParams.velocity_band` [cells]. The ambient held at rest beyond the band
+drags on the surface (viscous stress ~ eta_a u / (band dx)); measured on the Lagree column
+(a = 1.42, 128^2, fronts at rest against velocity_band = 0): band 3 -1.5 % (toe) / -1.0 %
+(0.05 H0 front), band 6 -0.6 % / -0.45 %, band 10 -0.16 % / -0.2 %; the a = 1.42 run at 32^2
+moved 5 % with band 3 and not with 6 or 10. Cost at 128^2: 11.4 s (3), 11.5 s (6), 12.4 s (10);
+at 256^2 39.8 s (3), 49.1 s (10) (benchmarks/README.md)."""
 PHI_TRACE = 1.0e-6
 """Cells with ``phi > PHI_TRACE phi_max`` hold grains for the velocity band
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
