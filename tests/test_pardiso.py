@@ -351,3 +351,29 @@ def test_inaccurate_pardiso_solution_falls_back_to_superlu(systems, monkeypatch)
     A = sp.csr_matrix(np.array([[1.0, 2.0, 0.0], [2.0, 4.0, 0.0], [0.0, 0.0, 1.0]]))
     with pytest.raises(LinearSolverError, match="SuperLU"):
         make_linear_solver("pardiso").solve(A, np.array([1.0, 0.0, 1.0]))
+
+
+def test_thread_setting_is_restored_for_the_enclosing_call(systems):
+    """A solver released from inside another solver's call (the garbage collector can run its
+    __del__ there) must give back the enclosing call's one-thread setting, not MKL's global one:
+    the phases of one handle on different thread counts crash MKL (found by review)."""
+    import ctypes
+
+    from granflow.solvers.pardiso import _thread_local_setter
+
+    K, b = systems[0]
+    outer, inner = make_linear_solver("pardiso"), make_linear_solver("pardiso")
+    inner.solve(K, b)  # allocated, single-threaded
+    assert inner._single_thread
+    lib = outer._solver.libmkl
+    local = _thread_local_setter(lib)
+    get_max = lib.MKL_Get_Max_Threads
+    get_max.restype = ctypes.c_int
+    before = local(1)  # what the enclosing single-thread call sets
+    try:
+        inner._release()  # runs a PARDISO phase on one thread and restores the previous setting
+        assert get_max() == 1
+    finally:
+        local(before)
+    x, _ = outer.solve(K, b)
+    assert rel(x, spla.spsolve(sp.csc_matrix(K), b)) < LU_AGREEMENT

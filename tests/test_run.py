@@ -180,6 +180,10 @@ def test_restart_with_another_linear_solver_warns(tmp_path, capsys, caplog):
                             "--set", "numerics.ambient.velocity_band=0")
     assert code == RunExit.COMPLETED, err
     assert "velocity_band = 10" in caplog.text and "not bit for bit" in caplog.text
+    from granflow.solvers import pardiso_available
+
+    if pardiso_available():  # auto resolves to pardiso on restart: a solver mismatch too
+        assert "linear_solver = 'direct'" in caplog.text
 
 
 # --------------------------------------------------------------------------------------------

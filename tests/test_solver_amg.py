@@ -64,8 +64,11 @@ def test_auto_picks_the_solver_by_size(nx, nz, expected, monkeypatch):
     assert (unknowns >= AUTO_AMG_UNKNOWNS) == (expected == "amg")
     no_band = {"velocity_band": 0}  # the size rule applies to the whole-grid systems
     assert Model(g, make_closure("mu_i"), linear_solver="auto", ambient=no_band).linear_solver_name == expected
-    # with the velocity band (default) the systems are those of the band: direct at any size
+    # with the velocity band (default) the systems are those of the band: direct up to a size
     assert Model(g, make_closure("mu_i"), linear_solver="auto").linear_solver_name == "direct"
+    big = Grid(nx=320, nz=320, Lx=1.0, Lz=1.0)
+    assert big.n_unknowns + big.n_cells >= gm.AUTO_BANDED_DIRECT_UNKNOWNS
+    assert Model(big, make_closure("mu_i"), linear_solver="auto").linear_solver_name == "amg"
 
 
 def test_case_file_selects_the_linear_solver_and_periodic_grid():

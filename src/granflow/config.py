@@ -199,8 +199,8 @@ class NumericsSection(Section):
     linear_solver: Literal["auto", "direct", "pardiso", "amg"] = Field(
         "auto", description='linear solver of each Picard sweep: "direct" (SciPy sparse LU), "pardiso" '
         '(MKL sparse LU, needs granflow[fast]), "amg" (FGMRES + block AMG, ~O(N)) or "auto" (pardiso '
-        'if installed, else direct with the velocity band on, else amg from '
-        f'{AUTO_AMG_UNKNOWNS} unknowns up and direct below) [-]')
+        'if installed, else direct with the velocity band on (below 200000 unknowns), else amg '
+        f'from {AUTO_AMG_UNKNOWNS} unknowns up and direct below) [-]')
     picard: PicardSection = Field(default_factory=PicardSection, description="Picard loop [-]")
     ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
 

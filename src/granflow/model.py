@@ -75,6 +75,7 @@ from granflow.errors import GranflowInputError
 from granflow.grid import Grid, VelocityBCs
 from granflow.model_options import (  # re-exported: the Model's options and step report
     AUTO_AMG_UNKNOWNS,
+    AUTO_BANDED_DIRECT_UNKNOWNS,
     DEFAULT_DELTA_P,
     DEFAULT_EPS,
     DEFAULT_GRAVITY,
@@ -159,8 +160,9 @@ class Model:
     linear_solver : LinearSolverChoice or str
         ``"direct"`` (default; SciPy's sparse LU), ``"pardiso"`` (MKL sparse LU, optional extra
         ``granflow[fast]``), ``"amg"`` (FGMRES + block AMG, ~O(N)) or ``"auto"`` (``pardiso`` if
-        installed, else ``direct`` with the velocity band on (its systems are small), else
-        ``amg`` from :data:`AUTO_AMG_UNKNOWNS` unknowns up and ``direct`` below).
+        installed, else ``direct`` with the velocity band on (its systems are small) below
+        :data:`AUTO_BANDED_DIRECT_UNKNOWNS` whole-grid unknowns, else ``amg`` from
+        :data:`AUTO_AMG_UNKNOWNS` unknowns up and ``direct`` below).
         The chosen one is :attr:`linear_solver_name`.
     """
 
@@ -223,9 +225,10 @@ class Model:
             raise GranflowInputError(f"Model: unknown linear_solver {linear_solver!r}; expected one of "
                                      f"{[c.value for c in LinearSolverChoice]}") from None
         if choice is LinearSolverChoice.AUTO:  # the banded systems are small: a direct solver
+            size = grid.n_unknowns + grid.n_cells
             choice = (LinearSolverChoice.PARDISO if pardiso_available()
-                      else LinearSolverChoice.DIRECT if self.ambient.velocity_band
-                      else LinearSolverChoice.AMG if grid.n_unknowns + grid.n_cells >= AUTO_AMG_UNKNOWNS
+                      else LinearSolverChoice.DIRECT if self.ambient.velocity_band and size < AUTO_BANDED_DIRECT_UNKNOWNS
+                      else LinearSolverChoice.AMG if size >= AUTO_AMG_UNKNOWNS
                       else LinearSolverChoice.DIRECT)
         self.linear_solver_name = choice.value
         self._stable_pattern = choice is LinearSolverChoice.PARDISO

@@ -48,13 +48,20 @@ pressures) up; below it SciPy's sparse LU is faster (benchmarks/linear_solvers.p
 iterations from 40 x 15 to 160 x 60 cells, cost ~N^1.04 against ~N^1.46 for the LU)."""
 
 
+AUTO_BANDED_DIRECT_UNKNOWNS = 200_000
+"""Without PARDISO, ``linear_solver="auto"`` with the velocity band on uses SciPy's LU below this
+many whole-grid unknowns (velocities + cells; 256^2 has 1.96e5): a collapse's banded systems are
+small. Above it the band may still cover a flow that fills the box, so the AMG path is taken."""
+
+
 class LinearSolverChoice(str, Enum):
     """Linear solver of the Picard sweeps (:class:`Model` ``linear_solver``)."""
 
     AUTO = "auto"
     """``pardiso`` if its optional dependency is installed (``granflow[fast]``), else ``direct``
     when the velocity band is on (:attr:`AmbientParams.velocity_band`, default: the banded
-    systems of a collapse are small; Lagree 128^2: 26 s with SuperLU), else ``direct`` below
+    systems of a collapse are small; Lagree 128^2: 26 s with SuperLU) and the grid has fewer
+    than :data:`AUTO_BANDED_DIRECT_UNKNOWNS` unknowns, else ``direct`` below
     :data:`AUTO_AMG_UNKNOWNS` unknowns and ``amg`` above."""
     DIRECT = "direct"
     """SciPy's sparse LU (SuperLU): exact, the reference; cost grows ~N^1.5."""

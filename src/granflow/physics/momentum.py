@@ -322,7 +322,7 @@ class SaddleAssembler:
     def region(self, mask) -> VelocityRegion:
         """The restriction of the saddle-point system to the velocity unknowns of ``mask``
         (bool, (n_unknowns,)); pass it as ``saddle(..., velocity=region)``."""
-        mask = np.asarray(mask, dtype=bool)
+        mask = np.array(mask, dtype=bool)  # a copy: the layout cache keys on the region
         if mask.shape != (self.n,):
             raise GranflowInputError(f"region: mask must have shape ({self.n},), got {mask.shape}")
         size = int(np.count_nonzero(mask))

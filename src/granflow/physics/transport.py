@@ -237,7 +237,6 @@ def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) 
     Examples
     --------
     >>> from granflow.grid import Grid
-from granflow.physics.transport_kernel import advect_compiled, kernel_available
     >>> g = Grid(nx=8, nz=2, Lx=1.0, Lz=0.25)
     >>> u = np.zeros(g.xface_shape); u[1:-1] = 1.0
     >>> vel = g.pack_velocity(u, np.zeros(g.zface_shape))

@@ -77,10 +77,10 @@ _IPARM_USER = 1
 """iparm(1) = 1: the iparm array is filled by the caller."""
 _IPARM_SETTINGS = {
     MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1},
-    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 8: 2, 10: 8, 11: 1, 13: 1},
+    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 8: 2, 10: 8, 11: 1, 13: 1, 21: 1},
 }
 """1-based iparm entries set per matrix type: MKL's documented defaults (10: pivot perturbation
-1e-13 / 1e-8) with scaling and weighted matching on (11 = 13 = 1; MKL recommends them for
+1e-13 / 1e-8; 21 = 1 for the symmetric type: Bunch-Kaufman 1x1 and 2x2 pivots) with scaling and weighted matching on (11 = 13 = 1; MKL recommends them for
 saddle-point symmetric indefinite systems, whose residual is 1e-10 without them), and 8 = 2, up to
 two steps of iterative refinement (MKL's default 0 refines only after perturbed pivots)."""
 DEFAULT_REPRODUCIBLE_THREADS = 4
@@ -121,16 +121,23 @@ def _mkl_runtime() -> str | None:
     ``import pypardiso`` builds a module-level solver, which searches ``sys.prefix`` recursively
     (0.8 s) unless the environment variable points at the runtime: it is set for the import."""
     quick = sorted((p for pat in _MKL_RT_GLOBS for p in glob.glob(os.path.join(sys.prefix, pat))), key=len)
-    saved = os.environ.get(_MKL_RT_VARIABLE)
-    if quick and saved is None:
-        os.environ[_MKL_RT_VARIABLE] = quick[0]
-    try:
-        import pypardiso
-    except Exception:  # ImportError, or the module-level solver found no loadable runtime
+    pypardiso = None
+    for path in [*quick, None]:  # None: pypardiso's own search
+        saved = os.environ.get(_MKL_RT_VARIABLE)
+        if path is not None and saved is None:
+            os.environ[_MKL_RT_VARIABLE] = path
+        try:
+            import pypardiso
+            break
+        except ModuleNotFoundError:  # pypardiso is not installed
+            return None
+        except Exception:  # its module-level solver found no loadable runtime with this path
+            continue
+        finally:
+            if saved is None:
+                os.environ.pop(_MKL_RT_VARIABLE, None)
+    if pypardiso is None:
         return None
-    finally:
-        if saved is None:
-            os.environ.pop(_MKL_RT_VARIABLE, None)
     for path in [*quick, None]:
         saved = os.environ.get(_MKL_RT_VARIABLE)
         if path is not None and saved is None:
@@ -296,15 +303,17 @@ class PardisoSolver(LinearSolver):
     def _call(self, phase: PardisoPhase, A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         self._solver.set_phase(int(phase))
         local = _thread_local_setter(self._solver.libmkl) if self._single_thread else None
-        if local is not None:
-            local(1)
+        # every phase of a handle must run on the thread count of its analysis (MKL crashes or
+        # returns garbage otherwise): restore the previous setting, not the global one, since a
+        # garbage-collected solver can release its memory from inside another one's call
+        previous = local(1) if local is not None else None
         try:
             return self._solver._call_pardiso(A, b)
         except Exception as err:  # pypardiso.PyPardisoError carries MKL's error code
             raise LinearSolverError(f"pardiso phase {int(phase)}: {err}") from err
         finally:
             if local is not None:
-                local(0)  # 0: back to MKL's global setting
+                local(previous)
 
     def _release(self) -> None:
         """Free MKL's memory of this handle (phase -1) if anything was allocated."""
@@ -347,7 +356,9 @@ class PardisoSolver(LinearSolver):
                 self._release()
                 self._set_type(mtype)
             self._allocated = True
-            self._single_thread = A.shape[0] < self.params.threaded_min_unknowns
+            # one thread needs MKL's thread-local setter; without it keep the reproducibility mode
+            self._single_thread = (A.shape[0] < self.params.threaded_min_unknowns
+                                   and _thread_local_setter(self._solver.libmkl) is not None)
             self._solver.set_iparm(34, 0 if self._single_thread else int(self.params.reproducible_threads))
             self._call(PardisoPhase.ANALYSIS, self._stored(A), np.zeros(A.shape[0]))
             self._pattern = (A.indptr.copy(), A.indices.copy())
