@@ -10,6 +10,7 @@ HALF = 0.5
 
 @njit(cache=True)
 def minmod(a, b):
+    """sign(a) min(|a|, |b|) if a b > 0, else 0 (as ``transport.minmod``)."""
     if a * b > 0.0:
         return (1.0 if a > 0.0 else -1.0) * min(abs(a), abs(b))
     return 0.0
@@ -104,6 +105,10 @@ def limit(phi, fx, fz, dt, dx, dz, phi_max, cap, periodic, max_passes):
 
 @njit(cache=True)
 def advect(phi, u, w, dt, dx, dz, phi_max, bounded, cap, periodic, max_passes):
+    """One SSP-RK2 step of d_t phi + div(phi u) = 0 (paper eq. syst1b) with frozen face
+    velocities ``u`` (nx+1, nz), ``w`` (nx, nz+1) [m s^-1], ``phi`` [-], ``dt`` [s], ``dx``, ``dz``
+    [m]; the flux limiter keeps ``phi <= phi_max`` if ``bounded``. Returns the new phi, the
+    time-averaged fluxes [m s^-1] and the held-back volume [m^2] (``transport.advect_numpy``)."""
     nx, nz = phi.shape
     fx0 = np.zeros((nx + 1, nz))
     fz0 = np.zeros((nx, nz + 1))
