@@ -43,6 +43,10 @@ Step n -> n+1 (:meth:`Model.advance`):
 3. conservative MUSCL-minmod SSP-RK2 transport of phi with ``u^{n+1}``; bounds measured, then
    clipped, the clipped mass reported (:mod:`granflow.physics.transport`).
 
+With the velocity band (:attr:`AmbientParams.velocity_band`, :meth:`Model.velocity_region`) the
+velocity unknowns of step 2 are only the faces within that many cells of grains; the others are
+``u^{n+1} = 0`` (docs/solver.md, "Velocity band").
+
 A step FAILS (state untouched) on a non-finite closure value or solution, a Picard increment
 above ``picard.fail_tol``, a CFL number of ``u^{n+1}`` above 1/2 (positivity limit) or phi
 outside ``[-tol phi_max, (1 + tol) phi_max]`` before clipping.

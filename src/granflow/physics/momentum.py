@@ -39,6 +39,7 @@ symmetric (Biot-type structure; ``M`` is symmetric for both gas laws).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import Enum
 from typing import NamedTuple
 
@@ -229,12 +230,30 @@ class VelocityRegion(NamedTuple):
     """The maps of :meth:`SaddleAssembler.velocity_data` restricted to the kept entries."""
 
 
+@dataclass(frozen=True, eq=False)
 class _SaddleLayout:
     """Sparsity pattern of one saddle-point matrix (:meth:`SaddleAssembler.saddle`) and the map
     from the concatenated block values to its CSR data."""
 
-    def __init__(self, **fields) -> None:
-        self.__dict__.update(fields)
+    unknowns: np.ndarray
+    """Pressure unknowns (cells) it was built for."""
+    velocity: VelocityRegion | None
+    border: GasBorder | None
+    """Compared by identity (the layout holds them, so their ids cannot be reused)."""
+    n: int
+    """Number of velocity unknowns."""
+    gp: np.ndarray
+    gv: np.ndarray
+    idx: np.ndarray
+    """Pressure columns and values of the Grad entries, and the cells of the pressure unknowns."""
+    fv: np.ndarray | None
+    blk: sp.coo_matrix | None
+    """Grad values of the gas border and its block."""
+    size: int
+    order: np.ndarray
+    indptr: np.ndarray
+    indices: np.ndarray
+    """CSR pattern and the permutation of the concatenated values into its data."""
 
     @classmethod
     def build(cls, asm: SaddleAssembler, unknowns: np.ndarray, velocity: VelocityRegion | None,
