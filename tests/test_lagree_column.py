@@ -110,7 +110,27 @@ def test_example_runs_and_reports_a_dimensionless_runout(tmp_path):
     # same threshold (output.front_threshold) as summary.json's own front
     assert cd["runout"]["x_f"] == summary["front_position"]["final_m"]
     assert cd["runout"]["relative"] == pytest.approx((cd["runout"]["x_f"] - L0) / L0, rel=1e-14)
-    assert set(cd["front_at"]) == {"1", "2", "4"} and cd["front_at"]["1"] is None  # t = 0.3 < 1
+    assert set(cd["front_at"]) == {"1", "2", "3", "4"} and cd["front_at"]["1"] is None  # t = 0.3 < 1
+    assert cd["final_profile"]["x"][0] == 0.0 and cd["final_profile"]["h"][0] > 0.5
+
+
+@pytest.mark.parametrize("a, D", [(0.5, 1 / 30), (1.42, 1 / 65), (6.26, 1 / 65)])
+def test_default_grain_size_gives_basilisks_inertial_number(a, D):
+    """Basilisk's granular.h: I = D gamma_dot / sqrt(p / rho) with the bulk rho = 1 (D = 1/30 by
+    default, 1/65 in granular_column.c's a = 1.42 and 6.26 runs). granflow's I of the same simple
+    shear (|S| = gamma_dot / 2) must be equal."""
+    sim = CASES.get(CASE).setup(config(n=64, setup={"a": a}))
+    mat = sim.model.material
+    gamma_dot, p = 3.0, 0.4
+    basilisk = D * gamma_dot / np.sqrt(p / 1.0)
+    assert mat.inertial_number(gamma_dot / 2.0, p) == pytest.approx(basilisk, rel=1e-14)
+
+
+def test_grain_size_options_are_exclusive_and_d_overrides():
+    sim = CASES.get(CASE).setup(config(setup={"d": 0.025}))
+    assert sim.model.material.d == 0.025
+    with pytest.raises(GranflowInputError, match="setup.d_basilisk"):
+        CASES.get(CASE).setup(config(setup={"d": 0.025, "d_basilisk": 0.02}))
 
 
 def test_mu_i_model_builds_the_papers_closure():

@@ -27,8 +27,18 @@ carry physical units whose common defaults are meaningless here: ``numerics.delt
 take :data:`DIMENSIONLESS_DELTA_P` and :data:`DIMENSIONLESS_RHO_A`. Everything else (grid
 resolution, walls, time, numerics, output) is read as usual.
 
-Assumption to check against the paper: the grain size ``d / H0`` (default 1/40) is not confirmed
-from Lagree et al. (2011); it is a ``[setup]`` option for that reason.
+Grain size. The default reproduces Basilisk's ``granular_column.c`` (the public counterpart of
+Lagree et al. 2011; Basilisk's ``granular.h`` evaluates ``I = D gamma_dot / sqrt(p/rho)`` with the
+*bulk* density ``rho = 1`` and ``D = 1/30``, and ``granular_column.c`` sets ``D = 1/65`` before its
+a = 1.42 and 6.26 runs, none before its a = 0.5 run). granflow's inertial number is
+``I = c_I d |S| / sqrt(p/rho_s)`` with the *grain* density ``rho_s = 1/phi_max`` and, in simple shear,
+``c_I |S| = gamma_dot`` (c_I = 2), so the two agree when
+
+    d = sqrt(phi_max) * D_basilisk                                   (d = 0.0119 for D = 1/65).
+
+``setup.d_basilisk`` is D (default :func:`basilisk_grain_size`: 1/30 at a < 1, 1/65 otherwise);
+``setup.d`` sets granflow's d directly instead (the case before scheme v2 used ``d = 1/40``,
+an inertial number 2.1 times Basilisk's at a = 1.42: ``setup.d = 0.025``).
 """
 from __future__ import annotations
 
@@ -69,7 +79,7 @@ DIMENSIONLESS_RHO_A = 1.0e-2
 """``numerics.ambient.rho_a`` when not set [rho]: a light ambient."""
 FRONT_RECORD_INTERVAL = 1.0
 """Simulated time between the front records of the case [sqrt(H0/g)]."""
-FRONT_TIMES = (1.0, 2.0, 4.0)
+FRONT_TIMES = (1.0, 2.0, 3.0, 4.0)
 """Times at which ``case_diagnostics.front_at`` reports the front [sqrt(H0/g)]."""
 FRONT_CALLBACK = "lagree_fronts"
 """Name of the callback that records the front (also its schedule key in checkpoints)."""
@@ -78,6 +88,14 @@ LAMBDA1_BAND = (1.2, 2.2)
 Lajeunesse et al. 2005; MODEL.md §7)."""
 PAPER_ASPECT_RATIOS = (0.5, 1.42, 6.26)
 """The aspect ratios of Lagree et al. (2011)."""
+BASILISK_DEFAULT_GRAIN = 1.0 / 30.0
+"""``D`` of Basilisk's granular.h (used by granular_column.c for its a = 0.5 run) [H0]."""
+BASILISK_COLUMN_GRAIN = 1.0 / 65.0
+"""``D`` that granular_column.c sets for its a = 1.42 and a = 6.26 runs [H0]."""
+BASILISK_DEFAULT_GRAIN_BELOW = 1.0
+"""Aspect ratios below this take :data:`BASILISK_DEFAULT_GRAIN` (the file's a = 0.5 run)."""
+PROFILE_STATIONS = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5)
+"""Abscissae at which ``case_diagnostics.final_profile`` reports the deposit thickness [H0]."""
 ModelChoice = Literal["incompressible", "mu_i"]
 
 
@@ -86,8 +104,11 @@ class LagreeColumnSetup(Section):
 
     a: float = Field(1.42, gt=0, description="aspect ratio H0/L0 of the half column (Lagree et al. "
                      "2011: 0.5, 1.42, 6.26) [-]")
-    d: float = Field(1.0 / 40.0, gt=0, lt=1, description="grain diameter (assumption, to be checked "
-                     "against Lagree et al. 2011) [H0]")
+    d: float | None = Field(None, gt=0, lt=1, description="grain diameter in granflow's convention "
+                            "(I = c_I d |S| / sqrt(p/rho_s)); default sqrt(phi_max) d_basilisk [H0]")
+    d_basilisk: float | None = Field(None, gt=0, lt=1, description="grain diameter D of Basilisk's "
+                                     "granular.h (I = D gamma_dot / sqrt(p/rho), bulk rho = 1); default "
+                                     "1/30 for a < 1, 1/65 otherwise, as granular_column.c [H0]")
     model: ModelChoice = Field("incompressible", description='"incompressible" (reference mu(I), '
                                'div u = 0) or "mu_i" (the paper\'s mu(I) closure with dilatancy) [-]')
     mu_s: float = Field(0.32, gt=0, description="mu(0), static friction coefficient [-]")
@@ -142,16 +163,35 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
         out.append(("setup.Lz", f"{s.Lz} H0 is lower than the column (H0 = 1)"))
     elif H0 < dz:
         out.append(("grid.nz", f"H0 = 1 is smaller than one cell ({dz:.4g} H0); refine grid.nz"))
+    if s.d is not None and s.d_basilisk is not None:
+        out.append(("setup.d_basilisk", "give setup.d or setup.d_basilisk, not both"))
     if s.phi_max <= config.numerics.ambient.phi_c:
         phi_c = config.numerics.ambient.phi_c
         out.append(("setup.phi_max", f"{s.phi_max} must exceed numerics.ambient.phi_c = {phi_c}"))
     return out
 
 
+def basilisk_grain_size(a: float) -> float:
+    """Basilisk's ``D`` for aspect ratio ``a`` as granular_column.c runs it [H0]:
+    :data:`BASILISK_DEFAULT_GRAIN` below :data:`BASILISK_DEFAULT_GRAIN_BELOW`, else
+    :data:`BASILISK_COLUMN_GRAIN`."""
+    return BASILISK_DEFAULT_GRAIN if a < BASILISK_DEFAULT_GRAIN_BELOW else BASILISK_COLUMN_GRAIN
+
+
+def grain_size(setup) -> float:
+    """granflow's ``d`` [H0]: ``setup.d``, else ``sqrt(phi_max) D`` with ``D = setup.d_basilisk``
+    or :func:`basilisk_grain_size` (module docstring: the same inertial number as Basilisk's)."""
+    if setup.d is not None:
+        return float(setup.d)
+    D = setup.d_basilisk if setup.d_basilisk is not None else basilisk_grain_size(setup.a)
+    return float(np.sqrt(setup.phi_max) * D)
+
+
 def material(config: CaseConfig) -> Material:
-    """The dimensionless material: ``d = setup.d``, ``rho_s = 1/phi_max`` (so rho = 1), ``c_I = 2``."""
+    """The dimensionless material: ``d`` of :func:`grain_size`, ``rho_s = 1/phi_max`` (so rho = 1),
+    ``c_I = 2``."""
     s = config.setup
-    return Material(d=s.d, rho_s=BULK_DENSITY / s.phi_max, phi_max=s.phi_max, delta_phi=s.delta_phi,
+    return Material(d=grain_size(s), rho_s=BULK_DENSITY / s.phi_max, phi_max=s.phi_max, delta_phi=s.delta_phi,
                     c_I=float(InertialConvention.LITERATURE))
 
 
@@ -221,8 +261,9 @@ def _finite(x: float) -> float | None:
 
 
 def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
-    """Dimensionless run-out (x_f and (x_f - L0)/L0), fronts at t = 1, 2, 4, final height at the
-    wall, and the parameters actually used (units H0, sqrt(H0/g), rho)."""
+    """Dimensionless run-out (x_f and (x_f - L0)/L0), fronts at t = 1, 2, 3, 4, final height at
+    the wall and at :data:`PROFILE_STATIONS` (linear between cell centres), and the parameters
+    actually used (units H0, sqrt(H0/g), rho)."""
     s, g = config.setup, sim.model.grid
     L0 = H0 / s.a
     thr = front_threshold(config, g)
@@ -233,7 +274,8 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
     fronts = rec.fronts if rec is not None else {}
     return {
         "units": {"length": "H0", "time": "sqrt(H0/g)", "density": "rho = phi_max rho_s"},
-        "model": s.model, "aspect_ratio": s.a, "H0": H0, "L0": L0, "d": s.d,
+        "model": s.model, "aspect_ratio": s.a, "H0": H0, "L0": L0, "d": grain_size(s),
+        "d_basilisk": grain_size(s) / float(np.sqrt(s.phi_max)),
         "mu_s": s.mu_s, "delta_mu": s.delta_mu, "I0": s.I0, "c_I": float(InertialConvention.LITERATURE),
         "phi_max": s.phi_max, "delta_phi": s.delta_phi if s.model == "mu_i" else None,
         "front_threshold": thr,
@@ -242,8 +284,10 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
                    "published_lambda1_band": list(LAMBDA1_BAND)},
         "front_at": {f"{t:g}": _finite(fronts.get(round(t, 9), np.nan)) for t in FRONT_TIMES},
         "final_height_at_wall": float(dg.deposit_thickness(g, sim.state.phi, phi_max)[0]),
+        "final_profile": {"x": list(PROFILE_STATIONS),
+                          "h": [float(v) for v in np.interp(PROFILE_STATIONS, g.xc,
+                                                            dg.deposit_thickness(g, sim.state.phi, phi_max))]},
         "numerics_used": numerics_used(config),
-        "assumption": "d/H0 is not confirmed against Lagree et al. (2011)",
     }
 
 
