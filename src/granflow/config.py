@@ -184,7 +184,9 @@ class NumericsSection(Section):
     eps: float = Field(DEFAULT_EPS, gt=0, description="regularisation strain rate [s^-1]")
     delta_p: float = Field(DEFAULT_DELTA_P, gt=0, description="pressure offset of the sqrt(p) "
                            "linearisation and of I at p -> 0 [Pa]")
-    advection: Literal["upwind", "muscl"] = Field("upwind", description="momentum advection scheme [-]")
+    advection: Literal["upwind", "muscl", "consistent"] = Field(
+        "upwind", description='momentum advection scheme: "upwind", "muscl" (non-conservative '
+        '(u.grad)u) or "consistent" (conservative, with the phi transport\'s mass fluxes) [-]')
     interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
     gravity_blend_velocity: float | None = Field(

@@ -44,7 +44,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granflow.grid import Grid
-from granflow.physics import momentum as mom
 from granflow.physics.pore_pressure import GasEnergy, GasLaw, darcy_dissipation, gas_energy
 
 HALF = 0.5
@@ -57,7 +56,7 @@ def mass(grid: Grid, phi) -> float:
 
 def kinetic_energy(model, state) -> float:
     """``1/2 sum_f rho_f u_f^2 dV`` [J m^-1] with the model's face inertia."""
-    rho_f = mom.face_density(model.ops, state.phi, model.material.rho_s, model.ambient.rho_a)
+    rho_f = model.inertia_density(state.phi)
     return HALF * model.grid.cell_volume * float(rho_f @ (state.vel * state.vel))
 
 
@@ -165,7 +164,7 @@ class EnergyBudget:
 
     @classmethod
     def start(cls, model, state) -> EnergyBudget:
-        rho_f = mom.face_density(model.ops, state.phi, model.material.rho_s, model.ambient.rho_a)
+        rho_f = model.inertia_density(state.phi)
         e_k, e_p = kinetic_energy(model, state), potential_energy(model, state)
         e_1 = gas_energy_of(model, state)
         return cls(model=model, e_k0=e_k, e_p0=e_p, e_k=e_k, e_p=e_p, rho_f=rho_f, t=state.t,
@@ -175,14 +174,16 @@ class EnergyBudget:
         """Account for one accepted step (``report`` from :meth:`Model.advance`)."""
         m, dt = self.model, report.dt
         dV = m.grid.cell_volume
-        rho_new = mom.face_density(m.ops, state.phi, m.material.rho_s, m.ambient.rho_a)
+        rho_new = m.inertia_density(state.phi)
+        rho_used = getattr(report, "solve_density", None)
+        rho_used = self.rho_f if rho_used is None else rho_used
         e_p = potential_energy(m, state)
         # periodic frame jump of E_p (docstring of potential_energy), removed from both terms
         jump = -m.material.rho_s * m.gravity[0] * m.grid.Lx * getattr(report, "wrapped_mass", 0.0)
         self.e_p0 -= jump
         self.numerical["backward_euler"] -= dt * report.inertia_dissipation
         self.numerical["advection"] -= dt * report.advection_power
-        self.numerical["inertia_transport"] += HALF * dV * float((rho_new - self.rho_f) @ (state.vel ** 2))
+        self.numerical["inertia_transport"] += HALF * dV * float((rho_new - rho_used) @ (state.vel ** 2))
         self.numerical["gravity_transport"] += e_p - self.e_p + jump + dt * report.gravity_power
         self.dissipated_yield += dt * report.dissipation_yield
         self.dissipated_dilatancy += dt * report.dissipation_dilatancy

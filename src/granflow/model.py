@@ -97,6 +97,7 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
 )
 from granflow.operators import Operators
 from granflow.physics import momentum as mom
+from granflow.physics import momentum_transport as mt
 from granflow.physics.coupling import GasCoupling
 from granflow.physics.dilatancy import ap_factor
 from granflow.physics.pore_pressure import GasLaw
@@ -298,6 +299,16 @@ class Model:
                                                 mode=self._filter_mode()), phi)
         return np.clip(out, PHI_FLOOR, self.material.phi_max).ravel()
 
+    def inertia_density(self, phi) -> np.ndarray:
+        """Face inertia [kg m^-3] at the velocity unknowns: ``rho_s phi_f + rho_a`` with the
+        consistent momentum transport (the dual-cell mass of
+        :mod:`granflow.physics.momentum_transport` plus a constant ambient floor), else
+        ``max(phi_f rho_s, rho_a)`` (v1, :func:`granflow.physics.momentum.face_density`)."""
+        if self.advection is mom.Advection.CONSISTENT:
+            phi_f = self.ops.cell_to_face @ np.ravel(phi)
+            return self.material.rho_s * np.maximum(phi_f, 0.0) + self.ambient.rho_a
+        return mom.face_density(self.ops, phi, self.material.rho_s, self.ambient.rho_a)
+
     def lithostatic_pressure(self, phi) -> np.ndarray:
         """Discrete hydrostatic p [Pa], shape (nx, nz): the p with ``Grad p = f_g`` on the z-faces
         of every column (trapezoidal sum of ``phi rho_s |g_z| dz`` from the top), zero in the
@@ -417,10 +428,16 @@ class Model:
         phi_e = self.effective_packing(phi)
         iso = (self.interface_band(phi, self.isochoric_interface).ravel()
                if self.isochoric_interface else None)
-        rho_f = mom.face_density(ops, phi, mat.rho_s, self.ambient.rho_a)
-        adv = mom.momentum_advection(ops, state.vel, self.advection)
+        rho_f = self.inertia_density(phi)  # inertia at t^n
+        consistent = self.advection is mom.Advection.CONSISTENT
         f_g, drag = self.gravity_split(phi, state.vel, dt)
-        rhs_u = rho_f * (state.vel / dt - adv) + f_g
+        if consistent:  # (m^{k} u - m^n u^n)/dt + rho_s A(F_k, u^n): mass fluxes of the iterate
+            rhs_0 = rho_f * state.vel / dt + f_g
+            rho_k, flux_div, rhs_u = rho_f, None, rhs_0
+        else:
+            adv = mom.momentum_advection(ops, state.vel, self.advection)
+            rhs_u = rho_f * (state.vel / dt - adv) + f_g
+            rho_k = rho_f
         gas_sys, border, rhs_gas = None, None, []
         if self.gas_coupling is not None:
             try:
@@ -446,6 +463,8 @@ class Model:
         tim["assembly"] += time.perf_counter() - t0
         for sweeps in range(1, self.picard.max_sweeps + 1):
             t0 = time.perf_counter()
+            if consistent:
+                rho_k, flux_div, rhs_u = self._consistent_inertia(phi, state.vel, u_k, dt, rhs_0)
             S = ops.strain_rate_norm(u_k)
             coef = self.coefficients(phi_e, p_k, S, dt, dense)
             if iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
@@ -456,7 +475,7 @@ class Model:
                                         f"dense cells: {coef.nonfinite}", sweeps, tim)
             n_negz = max(n_negz, coef.n_negative_Z)
             eta_n = ops.cell_to_node @ coef.eta_c
-            a_data = self.assembler.velocity_data(rho_f / dt + drag, coef.eta_c, eta_n, region)
+            a_data = self.assembler.velocity_data(rho_k / dt + drag, coef.eta_c, eta_n, region)
             act = dense & ~free
             punk = dense if self._stable_pattern else act  # pressure unknowns (saddle ``unknowns``)
             K = self.assembler.saddle(a_data, act, coef.C, border, unknowns=punk, velocity=region)
@@ -474,7 +493,7 @@ class Model:
                         x0 = np.concatenate([u_k if keep is None else u_k[keep], np.where(act, p_k, 0.0)[punk],
                                              np.zeros(K.shape[0] - nv - m_unk)])
                         sol, info = self.linear_solver.solve(
-                            K, rhs, x0=x0, hints=SaddleHints(mass=rho_f / dt + drag, viscosity=coef.eta_c[act]))
+                            K, rhs, x0=x0, hints=SaddleHints(mass=rho_k / dt + drag, viscosity=coef.eta_c[act]))
                         krylov += int(info.iterations)
                 except Exception as err:  # singular matrix, SuperLU failure, Krylov non-convergence
                     tim["solve"] += time.perf_counter() - t1
@@ -516,7 +535,10 @@ class Model:
         diss_d = -dV * float(p_solve @ (ops.div @ u_k))  # the p of the solve (before freeing)
         du = u_k - state.vel
         be = 0.5 * dV * float(rho_f @ (du * du)) / dt
-        adv_pow = dV * float((rho_f * adv) @ u_k)
+        if consistent:
+            adv_pow = mt.advection_energy_rate(mat.rho_s, dV, flux_div[0], flux_div[1], u_k)
+        else:
+            adv_pow = dV * float((rho_f * adv) @ u_k)
         grav_pow = dV * float((f_g - drag * u_k) @ u_k)
         # --- transport -------------------------------------------------------------------------
         t0 = time.perf_counter()
@@ -558,7 +580,21 @@ class Model:
             min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
             dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
             gravity_power=grav_pow, timings=tim, gas=gas_powers, wrapped_mass=wrapped,
-            linear_iterations=krylov, limited_mass=moved.held_back)
+            linear_iterations=krylov, limited_mass=moved.held_back,
+            solve_density=rho_k if consistent else None)
+
+    def _consistent_inertia(self, phi, vel_n, u_k, dt: float, rhs_0):
+        """Inertia and right-hand side of the consistent momentum transport for the iterate
+        ``u_k`` (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with
+        ``u_k`` gives the solid fluxes ``F_k``; the solve uses ``m_k = rho_s phi_f(T(phi, u_k)) +
+        rho_a`` (the dual-cell mass after the step) and ``rhs_0 - rho_s A(F_k, u^n)``. At Picard
+        convergence ``F_k`` is the flux of the step's own transport, so mass and momentum move
+        together. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
+        rho_s = self.material.rho_s
+        moved = advect(self.grid, phi, u_k, dt, self.material.phi_max)
+        A = mt.momentum_flux_divergence(self.grid, moved.flux_x, moved.flux_z, vel_n)
+        div_dual = mt.dual_mass_divergence(self.ops, moved.flux_x, moved.flux_z)
+        return self.inertia_density(moved.phi), (A, div_dual), rhs_0 - rho_s * A
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:

@@ -91,6 +91,10 @@ class Advection(str, Enum):
     MUSCL = "muscl"
     """Upwind differences of MUSCL-minmod reconstructed mid-point values (second order away from
     extrema, TVD in 1-D for CFL <= 1/2)."""
+    CONSISTENT = "consistent"
+    """Conservative momentum transport with the phi transport's own mass fluxes and MUSCL-minmod
+    face values (scheme v2, :mod:`granflow.physics.momentum_transport`); inertia
+    ``rho_s phi_f + rho_a``."""
 
 
 def _minmod(a, b):
