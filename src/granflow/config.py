@@ -187,6 +187,9 @@ class NumericsSection(Section):
     advection: Literal["upwind", "muscl", "consistent"] = Field(
         "upwind", description='momentum advection scheme: "upwind", "muscl" (non-conservative '
         '(u.grad)u) or "consistent" (conservative, with the phi transport\'s mass fluxes) [-]')
+    phi_transport: Literal["muscl", "sharp"] = Field(
+        "muscl", description='face values of the phi transport: "muscl" (MUSCL-minmod) or "sharp" '
+        '(MUSCL-THINC-BVD, the free surface kept within 1-2 cells) [-]')
     interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
     gravity_blend_velocity: float | None = Field(

@@ -4,8 +4,12 @@ absent) or fluidised (``gas`` a :class:`~granflow.physics.pore_pressure.GasLaw`)
 
 Step n -> n+1 (:meth:`Model.advance`):
 
-1. explicit parts (:mod:`granflow.physics.momentum`): momentum advection (first-order upwind by
-   default, MUSCL optional), inertia ``rho_f = max(phi_f rho_s, rho_a)``, gravity
+1. explicit parts (:mod:`granflow.physics.momentum`): momentum transport -- the v1 schemes
+   ``"upwind"`` (default)/``"muscl"`` advect ``(u . grad) u`` with the inertia
+   ``rho_f = max(phi_f rho_s, rho_a)`` at t^n; ``advection = "consistent"`` (scheme v2) is
+   conservative, with the mass fluxes of a phi transport with the Picard iterate and the inertia
+   ``m = rho_s phi_f + rho_a`` after it (:mod:`granflow.physics.momentum_transport`,
+   :meth:`Model.inertia_density`; recomputed in each sweep of step 2) --, gravity
    ``phi_f rho_s g`` on the grains only. With ``consistent_gravity`` (default) the gravity
    ``phi_f`` is the face fraction of the mass flux of a transport step with ``u^n``
    (:func:`granflow.physics.transport.flux_face_fraction`), so that the gravity work matches the
@@ -103,6 +107,7 @@ from granflow.physics.dilatancy import ap_factor
 from granflow.physics.pore_pressure import GasLaw
 from granflow.physics.transport import (
     POSITIVITY_CFL,
+    PhiScheme,
     advect,
     cfl_number,
     clip_to_bounds,
@@ -146,7 +151,13 @@ class Model:
         ``eps * Lz``, the creep velocity scale. The blend is implicit where it damps
         (:meth:`gravity_split`).
     advection : Advection or str
-        Momentum advection scheme, ``"upwind"`` (default, v1) or ``"muscl"``.
+        Momentum transport: the v1 non-conservative ``(u . grad) u`` schemes ``"upwind"``
+        (default) and ``"muscl"``, or ``"consistent"`` (scheme v2: conservative, with the mass
+        fluxes of the phi transport, :mod:`granflow.physics.momentum_transport`).
+    phi_transport : PhiScheme or str
+        Face values of the phi transport: ``"muscl"`` (default, v1: MUSCL-minmod) or ``"sharp"``
+        (MUSCL-THINC-BVD: the free surface stays within 1-2 cells,
+        :mod:`granflow.physics.interface_capturing`).
     gas : GasLaw or str, optional
         Pore-gas law (paper eq. syst2b ``"linear"`` or eq. pressure-diffusion-nonlinear
         ``"nonlinear"``); None or ``"none"`` (default None) is the dry model.
@@ -181,7 +192,7 @@ class Model:
                  advection: mom.Advection | str = mom.Advection.UPWIND,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
                  linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
-                 isochoric_interface: int = 1) -> None:
+                 isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -218,6 +229,11 @@ class Model:
         except ValueError:
             raise GranflowInputError(f"Model: unknown advection scheme {advection!r}; expected one of "
                                      f"{[a.value for a in mom.Advection]}") from None
+        try:
+            self.phi_transport = PhiScheme(phi_transport)
+        except ValueError:
+            raise GranflowInputError(f"Model: unknown phi_transport {phi_transport!r}; expected one of "
+                                     f"{[a.value for a in PhiScheme]}") from None
         self.gravity_blend_velocity = (self.eps * grid.Lz if gravity_blend_velocity is None
                                        else float(gravity_blend_velocity))
         if not self.gravity_blend_velocity > 0:
@@ -341,7 +357,7 @@ class Model:
         face fraction of the mass flux of a step with velocity ``vel``
         (:func:`granflow.physics.transport.flux_face_fraction`), evaluated at ``vel``."""
         phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity,
-                                       self.material.phi_max)
+                                       self.material.phi_max, self.phi_transport)
                     if self.consistent_gravity else None)
         return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
 
@@ -368,7 +384,7 @@ class Model:
         centred = ops.cell_to_face @ phi.ravel()
         if not self.consistent_gravity:
             return rho_s * gvec * centred, np.zeros(g.n_unknowns)
-        out = advect(g, phi, vel, dt, self.material.phi_max)
+        out = advect(g, phi, vel, dt, self.material.phi_max, self.phi_transport)
         flux = g.pack_velocity(out.flux_x, out.flux_z)
         moving = vel != 0.0
         upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
@@ -545,7 +561,7 @@ class Model:
         cfl = cfl_number(g, u_k, dt)
         if cfl > POSITIVITY_CFL:
             return self._failed(dt, f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps, tim)
-        moved = advect(g, phi, u_k, dt, mat.phi_max)
+        moved = advect(g, phi, u_k, dt, mat.phi_max, self.phi_transport)
         phi_new = moved.phi
         wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
         if not np.all(np.isfinite(phi_new)):
@@ -591,7 +607,7 @@ class Model:
         convergence ``F_k`` is the flux of the step's own transport, so mass and momentum move
         together. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
         rho_s = self.material.rho_s
-        moved = advect(self.grid, phi, u_k, dt, self.material.phi_max)
+        moved = advect(self.grid, phi, u_k, dt, self.material.phi_max, self.phi_transport)
         A = mt.momentum_flux_divergence(self.grid, moved.flux_x, moved.flux_z, vel_n)
         div_dual = mt.dual_mass_divergence(self.ops, moved.flux_x, moved.flux_z)
         return self.inertia_density(moved.phi), (A, div_dual), rhs_0 - rho_s * A

@@ -51,6 +51,7 @@ import numpy as np
 
 from granflow.cases.runner import CaseRun
 from granflow.config import CaseConfig
+from granflow.verification.convergence import richardson  # noqa: F401  (dry_runout, fluidised_vs_dry use LAG.richardson)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -96,12 +97,6 @@ TRANSITION_A = 3.0
 """Aspect ratio separating the linear and the a^(2/3) regimes (Lajeunesse et al. 2005)."""
 BK_EXPONENT = (0.9, 0.1)
 """Balmforth & Kerswell (2005): exponent 0.9 +- 0.1."""
-FORMAL_ORDER = 1.0
-"""Formal order of the scheme in dx (first-order upwind momentum advection, docs/solver.md)."""
-GCI_SAFETY_3, GCI_SAFETY_2 = 1.25, 3.0
-"""Roache's safety factors of the grid convergence index (three levels / two or fallback)."""
-ORDER_RANGE = (0.5, 4.0)
-"""Observed orders accepted for a three-level extrapolation."""
 QUICK_LEVEL, QUICK_STEPS = 16, 20
 
 
@@ -258,35 +253,6 @@ def load_arrays(name: str, datadir: Path = DATA) -> dict:
 
 
 # --- analysis ------------------------------------------------------------------------------------
-def richardson(values, ratio: float = 2.0) -> dict:
-    """Extrapolated value and uncertainty from coarse-to-fine ``values`` (refinement ``ratio``).
-
-    Three values: observed order p = ln((f1 - f2)/(f2 - f3))/ln r; if the differences have the
-    same sign and p is in :data:`ORDER_RANGE`, f = f3 + (f3 - f2)/(r^p - 1) with uncertainty
-    GCI = 1.25 |f3 - f2|/(r^p - 1) (Roache 1998). Otherwise (two values, or non-monotone / out-of-
-    range order) the formal order 1 with safety factor 3: f = f_fine + (f_fine - f_prev)/(r - 1),
-    uncertainty 3 |f_fine - f_prev|/(r - 1).
-    """
-    f = [float(v) for v in values]
-    if len(f) >= 3:
-        d1, d2 = f[-3] - f[-2], f[-2] - f[-1]
-        if d1 * d2 > 0 and d2 != 0:
-            p = math.log(d1 / d2) / math.log(ratio)
-            if ORDER_RANGE[0] <= p <= ORDER_RANGE[1]:
-                e = (f[-1] - f[-2]) / (ratio**p - 1)
-                return {"value": f[-1] + e, "uncertainty": GCI_SAFETY_3 * abs(e), "order": p,
-                        "method": "3-level Richardson"}
-        label = "1st-order fallback"
-        p_obs = math.log(abs(d1 / d2)) / math.log(ratio) if d1 * d2 > 0 and d2 != 0 else None
-    elif len(f) == 2:
-        label, p_obs = "2-level, 1st order assumed", None
-    else:
-        return {"value": f[-1] if f else math.nan, "uncertainty": math.nan, "order": None,
-                "method": "single level"}
-    e = (f[-1] - f[-2]) / (ratio**FORMAL_ORDER - 1)
-    return {"value": f[-1] + e, "uncertainty": GCI_SAFETY_2 * abs(e), "order": p_obs, "method": label}
-
-
 def power_fit(a, y, sigma=None) -> dict:
     """Least-squares fit of log y = log k + b log a; returns exponent b, prefactor k and the
     standard error of b (from the scatter of the residuals, numpy.polyfit ``cov=True``); with

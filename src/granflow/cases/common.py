@@ -83,7 +83,7 @@ def make_model(config: CaseConfig, **overrides: Any) -> Model:
         bcs=VelocityBCs(west=w.west, east=w.east, bottom=w.bottom, top=w.top), eps=n.eps,
         ambient=n.ambient, picard=n.picard, delta_p=n.delta_p,
         interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
-        consistent_gravity=n.consistent_gravity, advection=n.advection,
+        consistent_gravity=n.consistent_gravity, advection=n.advection, phi_transport=n.phi_transport,
         gravity_blend_velocity=n.gravity_blend_velocity, linear_solver=n.linear_solver,
         isochoric_interface=n.isochoric_interface, **gas_options(config))
     unknown = set(overrides) - set(inspect.signature(Model).parameters)

@@ -26,10 +26,12 @@ keeps :func:`flux_divergence` a plain difference; the mass is conserved to round
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
 from granflow.grid import Grid
+from granflow.physics.interface_capturing import JUMP_FRACTION, face_states, limit_to_lower_bound
 from granflow.physics.transport_kernel import advect_compiled, kernel_available
 
 HALF = 0.5
@@ -98,6 +100,41 @@ def muscl_fluxes(grid: Grid, phi, u: np.ndarray, w: np.ndarray) -> tuple[np.ndar
     wi = w[:, 1:-1]
     fz[:, 1:-1] = np.where(wi > 0.0, wi * below, wi * above)
     return fx, fz
+
+
+def sharp_fluxes(grid: Grid, phi, u: np.ndarray, w: np.ndarray,
+                 min_jump: float) -> tuple[np.ndarray, np.ndarray]:
+    """Face fluxes ``phi_f u`` [m s^-1] with MUSCL-THINC-BVD upwind face values
+    (:mod:`granflow.physics.interface_capturing`; THINC where neighbours differ by more than
+    ``min_jump``); otherwise the arguments and shapes of :func:`muscl_fluxes`."""
+    phi = np.asarray(phi, dtype=float)
+    fx = np.zeros(grid.xface_shape)
+    fz = np.zeros(grid.zface_shape)
+    lo_x, hi_x = face_states(phi, 0, grid.periodic_x, min_jump)
+    if grid.periodic_x:  # x-face i between cells i-1 (mod nx) and i
+        left, right = np.roll(hi_x, 1, axis=0), lo_x
+    else:
+        left, right = hi_x[:-1, :], lo_x[1:, :]
+    cols = grid.u_columns
+    ui = u[cols, :]
+    fx[cols, :] = np.where(ui > 0.0, ui * left, ui * right)
+    if grid.periodic_x:
+        fx[-1, :] = fx[0, :]
+    lo_z, hi_z = face_states(phi, 1, False, min_jump)
+    wi = w[:, 1:-1]
+    fz[:, 1:-1] = np.where(wi > 0.0, wi * hi_z[:, :-1], wi * lo_z[:, 1:])
+    return fx, fz
+
+
+class PhiScheme(str, Enum):
+    """Face values of the phi transport (``numerics.phi_transport``)."""
+
+    MUSCL = "muscl"
+    """MUSCL-minmod (v1; compiled kernel when Numba is installed)."""
+    SHARP = "sharp"
+    """MUSCL-THINC-BVD: THINC's smoothed step where it lowers the boundary variation (the free
+    surface stays within 1-2 cells), MUSCL-minmod elsewhere; outflows limited for phi >= 0
+    (:mod:`granflow.physics.interface_capturing`)."""
 
 
 def flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -195,12 +232,14 @@ def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
     return fx, fz, held
 
 
-def advect(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) -> TransportResult:
-    """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b): the
-    compiled kernel (:mod:`granflow.physics.transport_kernel`) when Numba is installed, else the
-    NumPy reference :func:`advect_numpy` (same arguments and result, equal to round-off)."""
-    if not kernel_available():
-        return advect_numpy(grid, phi, vel, dt, phi_max)
+def advect(grid: Grid, phi, vel, dt: float, phi_max: float | None = None,
+           scheme: PhiScheme = PhiScheme.MUSCL) -> TransportResult:
+    """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b): for
+    MUSCL the compiled kernel (:mod:`granflow.physics.transport_kernel`) when Numba is installed,
+    else the NumPy reference :func:`advect_numpy` (same arguments and result, equal to
+    round-off); the sharp scheme (:class:`PhiScheme`) runs in NumPy."""
+    if scheme is not PhiScheme.MUSCL or not kernel_available():
+        return advect_numpy(grid, phi, vel, dt, phi_max, scheme)
     u, w = face_velocities(grid, vel)
     out, fx, fz, held = advect_compiled(phi, u, w, dt, grid.dx, grid.dz, phi_max,
                                         (phi_max or 0.0) * (1.0 + BOUND_RTOL), grid.periodic_x,
@@ -213,7 +252,8 @@ def limiter_passes(grid: Grid) -> int:
     return max(MAX_LIMITER_PASSES, grid.nx + grid.nz)
 
 
-def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) -> TransportResult:
+def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None,
+                 scheme: PhiScheme = PhiScheme.MUSCL) -> TransportResult:
     """One SSP-RK2 step of ``d_t phi + div(phi u) = 0`` with frozen velocity (eq. syst1b); the
     NumPy reference of :func:`advect`.
 
@@ -229,6 +269,9 @@ def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) 
     phi_max : float, optional
         Upper bound kept by :func:`limit_to_upper_bound` in both stages (the result of SSP-RK2 is
         a convex combination of the two bounded stages); None: no limiting.
+    scheme : PhiScheme
+        Face values: MUSCL-minmod (default) or the sharp MUSCL-THINC-BVD, whose outflows are
+        also limited for ``phi >= 0`` (:func:`~granflow.physics.interface_capturing.limit_to_lower_bound`).
 
     Returns
     -------
@@ -247,13 +290,23 @@ def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) 
     """
     phi = np.asarray(phi, dtype=float)
     u, w = face_velocities(grid, vel)
-    fx0, fz0 = muscl_fluxes(grid, phi, u, w)
+    sharp = PhiScheme(scheme) is PhiScheme.SHARP
+    if sharp:
+        jump = JUMP_FRACTION * (phi_max if phi_max is not None else float(np.max(phi)))
+        fluxes = lambda g, q, u_, w_: sharp_fluxes(g, q, u_, w_, jump)  # noqa: E731
+    else:
+        fluxes = muscl_fluxes
+    fx0, fz0 = fluxes(grid, phi, u, w)
+    if sharp:
+        fx0, fz0 = limit_to_lower_bound(phi, fx0, fz0, dt, grid.dx, grid.dz, grid.periodic_x)
     held = 0.0
     if phi_max is not None:
         fx0, fz0, h0 = limit_to_upper_bound(grid, phi, fx0, fz0, dt, phi_max)
         held += HALF * h0
     phi1 = phi - dt * flux_divergence(grid, fx0, fz0)
-    fx1, fz1 = muscl_fluxes(grid, phi1, u, w)
+    fx1, fz1 = fluxes(grid, phi1, u, w)
+    if sharp:
+        fx1, fz1 = limit_to_lower_bound(phi1, fx1, fz1, dt, grid.dx, grid.dz, grid.periodic_x)
     if phi_max is not None:
         fx1, fz1, h1 = limit_to_upper_bound(grid, phi1, fx1, fz1, dt, phi_max)
         held += HALF * h1
@@ -263,7 +316,7 @@ def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None) 
 
 
 def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float,
-                       phi_max: float | None = None) -> np.ndarray:
+                       phi_max: float | None = None, scheme: PhiScheme = PhiScheme.MUSCL) -> np.ndarray:
     """Solid fraction seen by the mass flux of :func:`advect` at the velocity unknowns [-].
 
     ``phi_f = F_f / u_f`` with ``F`` the time-averaged SSP-RK2 flux of a step with velocity ``vel``
@@ -285,9 +338,11 @@ def flux_face_fraction(grid: Grid, phi, vel, dt: float, u_ref: float,
         Blending velocity [m s^-1] (> 0).
     phi_max : float, optional
         Upper bound of the transport (:func:`advect`).
+    scheme : PhiScheme
+        Face values of the transport (:func:`advect`).
     """
     phi = np.asarray(phi, dtype=float)
-    out = advect(grid, phi, vel, dt, phi_max)
+    out = advect(grid, phi, vel, dt, phi_max, scheme)
     flux = grid.pack_velocity(out.flux_x, out.flux_z)
     cx = (HALF * (np.roll(phi, 1, axis=0) + phi) if grid.periodic_x
           else HALF * (phi[:-1, :] + phi[1:, :]))
