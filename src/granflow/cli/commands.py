@@ -80,7 +80,27 @@ def _all_pass(report_dict: dict) -> bool:
     return all(c["pass"] for c in report_dict["conditions"].values())
 
 
+def _check_plot_path(path: str | None) -> None:
+    """``--plot PNG``: a writable file of an image format matplotlib writes (before computing)."""
+    if path is None:
+        return
+    from pathlib import Path
+
+    from granflow.cli.plot import _check_format
+    from granflow.output.paths import check_file
+
+    check_file(path, "--plot")
+    _check_format(Path(path), "--plot")
+
+
+def _make_parent(path: str) -> None:
+    from pathlib import Path
+
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+
+
 def cmd_check(args: argparse.Namespace) -> int:
+    _check_plot_path(args.plot)
     closure = closure_from_args(args)
     from granflow.theory.conditions import check
 
@@ -89,6 +109,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.plot:
         from granflow import plotting
 
+        _make_parent(args.plot)
         plotting.closure_overview(closure, args.plot)
         data["plot"] = args.plot
     if args.json:
@@ -123,6 +144,7 @@ def cmd_window(args: argparse.Namespace) -> int:
 def cmd_dispersion(args: argparse.Namespace) -> int:
     import numpy as np
 
+    _check_plot_path(args.plot)
     closure = closure_from_args(args)
     if not args.p > 0:
         raise GranflowInputError(f"--p must be positive (got {args.p})")
@@ -151,6 +173,7 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
     if args.plot:
         from granflow import plotting
 
+        _make_parent(args.plot)
         plotting.growth_figure(lead, curve, args.plot,
                                title=f"{closure.name}: phi={phi:.4g}, p={args.p:g} Pa, I={args.I:g}")
         data["plot"] = args.plot

@@ -221,11 +221,18 @@ def stop_on_sigint(sim) -> Iterator[None]:
 # run
 # --------------------------------------------------------------------------------------------
 def output_directory(args: argparse.Namespace, config) -> Path:
-    if args.out:
-        return Path(args.out)
-    if config.output.directory:
-        return Path(config.output.directory)
-    return Path(DEFAULT_RUNS_DIR) / Path(args.case).stem
+    """The run directory, checked for writability (nothing created): ``--out``, else
+    ``output.directory``, else ``runs/<case-file name>``."""
+    from granflow.cases.runner import CHECKPOINT_DIR, RUN_FILES
+    from granflow.output.paths import check_directory
+
+    if args.out is not None:
+        out, what = args.out, "--out"
+    elif config.output.directory:
+        out, what = config.output.directory, "output.directory"
+    else:
+        out, what = Path(DEFAULT_RUNS_DIR) / Path(args.case).stem, "output directory (default)"
+    return check_directory(out, what, files=RUN_FILES, subdirs=(CHECKPOINT_DIR,))
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -156,7 +156,13 @@ def load_sweep(path: str | Path):
         raise GranflowInputError(f"{path}: missing or empty [{PARAMETERS_TABLE}] table")
     parameters = flatten_parameters(params)
     base_path = path.parent / base
+    if base_path.resolve() == path.resolve():
+        raise GranflowInputError(f"{path}: {SWEEP_TABLE}.base = {base!r} is this sweep file; give "
+                                 "the case file the members are made from")
     _, base_data = read_toml(base_path)
+    if SWEEP_TABLE in base_data or PARAMETERS_TABLE in base_data:
+        raise GranflowInputError(f"{path}: {SWEEP_TABLE}.base = {base!r} is a sweep file, not a "
+                                 "case file")
     base_data = with_all_sections(base_data)
     spec_data = {k: v for k, v in sweep.items() if k != "base"}
     try:
@@ -250,8 +256,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     workers = None if args.scheduler is not None else (args.workers or LOCAL_WORKERS)
     spec, base_path = load_sweep(args.sweep_file)
     n = validate_members(spec)
-    out = Path(args.out) if args.out else Path(DEFAULT_RUNS_DIR) / Path(args.sweep_file).stem
-    out = out.resolve()  # the workers may not share our working directory
+    from granflow.output.paths import check_directory
+    from granflow.sweep import SPEC_FILE, TABLE_FILE
+
+    if args.out is not None:
+        out, what = args.out, "--out"
+    else:
+        out, what = Path(DEFAULT_RUNS_DIR) / Path(args.sweep_file).stem, "output directory (default)"
+    out = check_directory(out, what, files=(SPEC_FILE, TABLE_FILE)).resolve()  # the workers
+    # may not share our working directory
     where = f"scheduler {args.scheduler}" if args.scheduler else "a local Dask cluster"
     print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
           file=sys.stderr, flush=True)

@@ -11,6 +11,7 @@ and the divergence law is finite as |S| -> 0), else 1.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import sympy as sp
@@ -71,7 +72,23 @@ def parse_yield_function(text: str) -> sp.Expr:
     if extra:
         names = ", ".join(sorted(str(s) for s in extra))
         raise GranflowInputError(f"yield function {text!r}: unknown symbol(s) {names}; use phi and I only")
+    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise GranflowInputError(f"yield function {text!r}: not finite (it holds {sp.zoo if expr.has(sp.zoo) else 'oo or nan'}: "
+                                 "a division by zero or an infinite constant)")
+    for number in expr.atoms(sp.Number):
+        try:
+            finite = math.isfinite(float(number))
+        except (OverflowError, ValueError, TypeError):
+            finite = False
+        if not finite:
+            raise GranflowInputError(f"yield function {text!r}: the constant {_short(number)} is "
+                                     "outside the range of double precision (|x| < 1.8e308)")
     return expr
+
+
+def _short(number) -> str:
+    text = str(number)
+    return text if len(text) <= 30 else f"{text[:12]}...({len(text)} digits)"
 
 
 @dataclass(frozen=True)
