@@ -259,6 +259,21 @@ def _check_member_dir(member_dir: Path, member_id: str, overrides: Mapping[str, 
                 f"{previous} != {jsonable(dict(overrides))}); use a new output directory")
 
 
+def check_sweep_directory(spec: SweepSpec, outdir: str | Path) -> None:
+    """Refuse a sweep directory that holds something else than this sweep: a ``sweep.json`` not
+    written by :func:`run_sweep`, or a member directory of another member definition.
+
+    Raises
+    ------
+    GranflowInputError
+        Naming the file.
+    """
+    out = Path(outdir)
+    _check_spec_file(out / SPEC_FILE)
+    for member_id, overrides in spec.members():
+        _check_member_dir(out / member_id, member_id, overrides)
+
+
 def _check_spec_file(path: Path) -> None:
     """Refuse a sweep directory whose ``sweep.json`` was not written by :func:`run_sweep`."""
     if not (path.exists() or path.is_symlink()):
@@ -294,7 +309,7 @@ def _write_table(path: Path, rows: list[dict[str, Any]], override_keys: list[str
 
 def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
               outdir: str | Path, scheduler: str | None = None,
-              workers: int | None = None) -> Path:
+              workers: int | None = None, started: Callable[[], None] | None = None) -> Path:
     """Run every member of ``spec`` with ``run_member`` on a Dask cluster; return the CSV table.
 
     Parameters
@@ -311,6 +326,9 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         ``distributed.LocalCluster`` of ``workers`` single-threaded processes, closed at the end.
     workers : int, optional
         Worker processes of the local cluster (default 2); not allowed with ``scheduler``.
+    started : callable, optional
+        Called once the cluster is reached (before anything is written), e.g. to announce the
+        sweep: an unreachable scheduler raises ``OSError`` before it, with nothing written.
 
     Returns
     -------
@@ -332,13 +350,12 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         raise ImportError("sweeps need Dask: pip install 'granflow[sweep]'") from err
 
     out = Path(outdir)
-    _check_spec_file(out / SPEC_FILE)
+    check_sweep_directory(spec, out)
     members = spec.members()
     rows: dict[str, dict[str, Any]] = {}
     todo = []
     for member_id, overrides in members:
         mdir = out / member_id
-        _check_member_dir(mdir, member_id, overrides)
         row = {"member_id": member_id, "overrides": jsonable(overrides), "cached": False}
         rows[member_id] = row
         if (mdir / SUMMARY_FILE).is_file():
@@ -354,6 +371,8 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
                 cluster = LocalCluster(n_workers=workers or DEFAULT_WORKERS, threads_per_worker=1,
                                        processes=True, dashboard_address=LOCAL_DASHBOARD)
             client = Client(cluster if cluster is not None else scheduler)
+        if started is not None:
+            started()
         out.mkdir(parents=True, exist_ok=True)
         write_json_atomic(out / SPEC_FILE, spec.model_dump(mode="json"))
         tasks = []

@@ -167,6 +167,7 @@ class CaseRun:
         self.rest_speed = (out.rest_speed if out.rest_speed is not None
                            else REST_SPEED_FACTOR * config.numerics.eps * self.grid.Lz)
         self.progress = progress
+        self.warnings: list[str] = []
         self.front_t: list[float] = []
         self.front_x: list[float] = []
         self.mass0 = dg.mass(self.grid, self.sim.state.phi)
@@ -255,9 +256,34 @@ class CaseRun:
             probes = {"probe_p_f": st.p_f[self.probe_cells, 0], "probe_p": st.p[self.probe_cells, 0]}
         self.writer.append(t, {**self._fields(), "kinetic_energy": np.float64(sim.budget.e_k),
                                "x_front": np.float64(x_f), **probes})
+        self._check_equilibrium_range()
         self._last_out_t = t
         self.front_t.append(t)
         self.front_x.append(x_f)
+
+    def _check_equilibrium_range(self) -> None:
+        """Warn (once) when the run reaches an I at which phi_eq(I) < 0 (e.g. a large
+        material.delta_phi): the equilibrium law is then outside its meaning."""
+        if self.warnings:
+            return
+        m, st = self.sim.model, self.sim.state
+        grains = (st.phi >= m.ambient.phi_c) & (st.p > 0)
+        if not np.any(grains):
+            return
+        S = m.ops.strain_rate_norm(st.vel).reshape(self.grid.cell_shape)
+        I = m.material.inertial_number(S[grains], st.p[grains])
+        I = I[np.isfinite(I)]
+        if not I.size:
+            return
+        I_max = float(I.max())
+        phi_eq = float(m.closure.equilibrium.phi_eq(I_max))
+        if phi_eq < 0:
+            text = (f"granflow: warning: phi_eq(I) = {phi_eq:.3g} < 0 at I = {I_max:.3g}, reached at "
+                    f"t = {st.t:.6g} s (equilibrium law {self.config.equilibrium.law!r}, "
+                    f"delta_phi = {getattr(m.closure.equilibrium, 'delta_phi', float('nan')):g}): the dilatancy law is outside "
+                    "its range; lower delta_phi or use a law with phi_eq > 0 at every I")
+            self.warnings.append(text)
+            logger.warning(text)
 
     # --- monitor, checkpoints -------------------------------------------------------------------
     def _speeds(self) -> tuple[float, float]:
@@ -405,6 +431,7 @@ class CaseRun:
         closure = sim.model.closure
         return {
             "case": cfg.case.name, "status": status.value, "message": message,
+            "warnings": list(self.warnings),
             "t_final": st.t, "stop_time": cfg.time.stop_time, "steps": st.step,
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
             "runout_m": x_final - x_first,

@@ -208,12 +208,12 @@ def cmd_derive(args: argparse.Namespace) -> int:
 
     from granflow.rheology import derive_dilatancy, make_closure
 
-    derivation = derive_dilatancy(args.expression)
-    ov = parse_overrides(args.set)
+    ov = parse_overrides(args.set)  # bad --set items before the derivation
     if ov["closure"]:
         raise GranflowInputError(
             f"derive: unexpected closure parameter(s) {', '.join(ov['closure'])}; only material.* and equilibrium.*"
         )
+    derivation = derive_dilatancy(args.expression)
     closure = make_closure(
         "generic", material=ov["material"] or None, equilibrium=args.equilibrium,
         equilibrium_params=ov["equilibrium"], expression=args.expression,

@@ -4,7 +4,8 @@
 snapshot shows ``--var`` at the record nearest to ``--time`` (default: the last record) with the
 free surface, the phi = phi_c contour (``numerics.ambient.phi_c`` of the run); the colour bar
 carries the variable's ``long_name`` and ``units`` attributes. ``--animate OUT.gif`` writes one
-frame per record (matplotlib's PillowWriter). Bad input (missing or unreadable file, a variable
+frame per record (matplotlib's PillowWriter). Bad input (missing, unreadable or truncated file
+(:func:`granflow.output.integrity.check_complete`), an unwritable --out or --animate, a variable
 the file does not hold, a time outside the records, an unsupported image format) exits with
 code 2 and one line ``granflow: error: ...``.
 """
@@ -58,6 +59,9 @@ def open_run(path: Path):
     """Load a run's NetCDF file into memory; an unreadable file is bad input."""
     import xarray as xr
 
+    from granflow.output.integrity import check_complete
+
+    check_complete(path)  # a truncated classic file opens with zeros for the missing records
     try:
         with xr.open_dataset(path) as ds:
             ds = ds.load()

@@ -257,7 +257,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     spec, base_path = load_sweep(args.sweep_file)
     n = validate_members(spec)
     from granflow.output.paths import check_directory
-    from granflow.sweep import SPEC_FILE, TABLE_FILE
+    from granflow.sweep import SPEC_FILE, TABLE_FILE, check_sweep_directory
 
     if args.out is not None:
         out, what = args.out, "--out"
@@ -265,11 +265,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         out, what = Path(DEFAULT_RUNS_DIR) / Path(args.sweep_file).stem, "output directory (default)"
     out = check_directory(out, what, files=(SPEC_FILE, TABLE_FILE)).resolve()  # the workers
     # may not share our working directory
+    check_sweep_directory(spec, out)
     where = f"scheduler {args.scheduler}" if args.scheduler else "a local Dask cluster"
-    print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
-          file=sys.stderr, flush=True)
+
+    def started() -> None:
+        print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
+              file=sys.stderr, flush=True)
+
     try:
-        table = run_sweep(spec, run_member, out, scheduler=args.scheduler, workers=workers)
+        table = run_sweep(spec, run_member, out, scheduler=args.scheduler, workers=workers,
+                          started=started)
     except OSError as err:  # e.g. the scheduler cannot be reached, out not writable
         hint = f" (--scheduler {args.scheduler})" if args.scheduler else ""
         raise GranflowInputError(f"sweep{hint}: {type(err).__name__}: {err}") from None
