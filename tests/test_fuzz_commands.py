@@ -133,7 +133,7 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "check_section_set", "check_bad_set", "check_text_number", "check_plot", "check_expression",
          "derive_expression", "derive_bad_set", "dispersion_plot", "dispersion_bad_set", "sweep_out",
          "sweep_deep", "sweep_self_base", "sweep_foreign_json", "plot_out", "plot_animate",
-         "plot_truncated", "export_out", "export_truncated"]
+         "plot_truncated", "export_out", "export_truncated", "stability_nonfinite"]
 
 
 def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one branch per kind
@@ -256,6 +256,15 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
                 (ctx.work / "sw" / "sweep.json").write_text(rng.choice(["{}", "[1, 2]", "not json", '{"a": 1}']))
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "sweep.json"
             return ["sweep", str(sweep), "--out", _bad_out(rng, ctx)], "--out"
+        if kind == "stability_nonfinite":
+            bad = rng.choice(["inf", "-inf", "nan", "1e999"])
+            if rng.random() < 0.5:
+                values = {"mu1": "0.38", "mu2": "0.64", "I0": "0.3", "c-I": "2"}
+                name = rng.choice(list(values))
+                values[name] = bad
+                return ["stability", "window", *[f"--{k}={v}" for k, v in values.items()]], f"--{name}"
+            name = rng.choice(["p", "I", "p-f", "phi"])
+            return ["stability", "dispersion", "mu_i", f"--{name}={bad}"], f"--{name}"
         if kind == "plot_out":
             return ["plot", str(ctx.run_dir), "--out", _bad_out(rng, ctx, ".png")], "--out"
         if kind == "plot_animate":
@@ -333,7 +342,8 @@ def test_corpus_covers_every_kind_and_command():
     kinds = {k for k, _ in FAST}
     assert len(FAST) >= 300
     assert kinds == set(KINDS), set(KINDS) - kinds
-    assert {k.split("_")[0] for k in kinds} >= {"run", "check", "derive", "dispersion", "sweep", "plot", "export"}
+    assert {k.split("_")[0] for k in kinds} >= {"run", "check", "derive", "dispersion", "stability", "sweep",
+                                                "plot", "export"}
 
 
 @pytest.mark.parametrize("i", range(N_FAST))

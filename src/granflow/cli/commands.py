@@ -76,6 +76,16 @@ def closure_from_args(args: argparse.Namespace):
     )
 
 
+def _finite(args: argparse.Namespace, *names: str) -> None:
+    """Refuse NaN or infinite numeric options (argparse's float() accepts "inf" and "nan")."""
+    import math
+
+    for name in names:
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):
+            raise GranflowInputError(f"--{name.replace('_', '-')} must be a finite number (got {value})")
+
+
 def _all_pass(report_dict: dict) -> bool:
     return all(c["pass"] for c in report_dict["conditions"].values())
 
@@ -124,6 +134,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_window(args: argparse.Namespace) -> int:
+    _finite(args, "mu1", "mu2", "I0", "c_I")
     for name in ("mu1", "mu2", "I0", "c_I"):
         if not getattr(args, name) > 0:
             raise GranflowInputError(f"--{name.replace('_', '-')} must be positive (got {getattr(args, name)})")
@@ -145,6 +156,7 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
     import numpy as np
 
     _check_plot_path(args.plot)
+    _finite(args, "phi", "p", "I", "p_f")
     closure = closure_from_args(args)
     if not args.p > 0:
         raise GranflowInputError(f"--p must be positive (got {args.p})")

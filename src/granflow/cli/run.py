@@ -50,7 +50,9 @@ EXIT_CODES_HELP = f"""exit codes:
        a final checkpoint of the last good state and summary.json are kept
   {RunExit.BAD_INPUT:<4d} bad input, before any computation: case-file error naming the key
        (unknown key, wrong type, NaN, out of range, unknown closure/case, TOML syntax with
-       line/column), unreadable or mismatched --restart checkpoint, existing output
+       line/column), unreadable, insane (NaN, phi out of range) or mismatched (case, grid,
+       physics) --restart checkpoint, existing output, an output directory that cannot be
+       written, a grid beyond the memory available; nothing is written
   {RunExit.INTERNAL:<4d} internal error (a bug): traceback printed; output and summary.json kept
   {RunExit.INTERRUPTED:<4d} interrupted (Ctrl-C): stopped after the current step, checkpoint, output
        and summary.json written; continue with --restart DIR"""

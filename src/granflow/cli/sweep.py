@@ -54,8 +54,9 @@ EXIT_CODES_HELP = f"""exit codes:
        and in sweep_summary.csv); the other members ran. Run the same command again to retry
        the failed members only (finished members are skipped).
   {ExitCode.BAD_INPUT:<4d} bad input, before any member runs: sweep-file or base-case errors, an invalid
-       member configuration (named), --workers with --scheduler, DIR holding another sweep;
-       also an unreachable --scheduler (after Dask's connect timeout, 30 s by default)
+       member configuration (named), --workers with --scheduler, a base that is a sweep
+       file, DIR holding another sweep or a foreign sweep.json, an unwritable --out; also an
+       unreachable --scheduler (after Dask's connect timeout, 30 s by default); nothing written
   {ExitCode.INTERNAL:<4d} internal error (a bug): traceback printed
   Ctrl-C stops the sweep (exit 1); run the same command again to finish it."""
 
