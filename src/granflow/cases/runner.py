@@ -276,12 +276,13 @@ class CaseRun:
         if not I.size:
             return
         I_max = float(I.max())
-        phi_eq = float(m.closure.equilibrium.phi_eq(I_max))
+        law = m.closure.equilibrium
+        phi_eq = float(law.phi_eq(I_max))
         if phi_eq < 0:
             text = (f"granflow: warning: phi_eq(I) = {phi_eq:.3g} < 0 at I = {I_max:.3g}, reached at "
                     f"t = {st.t:.6g} s (equilibrium law {self.config.equilibrium.law!r}, "
-                    f"delta_phi = {getattr(m.closure.equilibrium, 'delta_phi', float('nan')):g}): the dilatancy law is outside "
-                    "its range; lower delta_phi or use a law with phi_eq > 0 at every I")
+                    f"delta_phi = {getattr(law, 'delta_phi', float('nan')):g}): the dilatancy law "
+                    "is outside its range; lower delta_phi or use a law with phi_eq > 0 at every I")
             self.warnings.append(text)
             logger.warning(text)
 
