@@ -28,11 +28,8 @@ granflow.errors.GranflowInputError: grid.nx: Input should be greater than or equ
 from __future__ import annotations
 
 import difflib
-import enum
 import functools
 import math
-import types
-import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -50,6 +47,7 @@ from pydantic import (
 from granflow.errors import GranflowInputError, UnknownNameError
 from granflow.grid import MIN_CELLS
 from granflow.materials import Material
+from granflow.params import accepts
 from granflow.model import (
     DEFAULT_DELTA_P,
     DEFAULT_EPS,
@@ -63,6 +61,24 @@ from granflow.physics.transport import POSITIVITY_CFL
 
 MAX_CELLS = 4_000_000
 """Largest grid ``nx * nz`` accepted (a guard against typos such as ``nx = 40000``)."""
+MAX_STEPS = 10_000_000
+"""Step budget without ``time.max_steps``: ``stop_time / dt_max`` (a lower bound of the number of
+steps) above it is refused (a guard against ``dt_max = 1e-300``, which would step for ever)."""
+PHYSICAL_RANGES = {
+    "material.d": (1e-6, 0.1, "m"),
+    "material.rho_s": (10.0, 3.0e4, "kg m^-3"),
+    "material.eta_f": (1e-7, 10.0, "Pa s"),
+    "material.p_atm": (1.0, 1e9, "Pa"),
+    "material.rho_f0": (1e-4, 3.0e3, "kg m^-3"),
+    "gravity.g": (0.0, 300.0, "m s^-2"),
+}
+"""Physical range [lo, hi] of the dimensional parameters (grains from 1 um powders to 10 cm
+boulders, solids from aerogels to tungsten, gases to liquids, gravity up to 30 g); a value outside
+is refused unless ``case.allow_unphysical = true``."""
+COLUMN_KEYS = ("H0", "h0", "H")
+"""``[setup]`` keys of the initial column or layer height, compared with ``material.d``."""
+EQUILIBRIUM_I = (0.0, 10.0)
+"""Range of I over which the yield function must be non-negative on the equilibrium line."""
 DEFAULT_GRAVITY = 9.81
 """Magnitude of gravity [m s^-2]."""
 MAX_SLOPE_DEG = 90.0
@@ -87,6 +103,9 @@ class CaseSection(Section):
     """``[case]``."""
 
     name: str = Field(description="case registry key (granflow list cases) [-]")
+    allow_unphysical: bool = Field(False, description="accept material and gravity parameters "
+                                   "outside the physical ranges of granflow.config.PHYSICAL_RANGES "
+                                   "(an unusual study, e.g. dimensionless units) [-]")
 
 
 class MaterialSection(Material):
@@ -430,20 +449,6 @@ def _nonfinite(data: Any, loc: tuple) -> list[str]:
     return []
 
 
-def _accepts(annotation: Any, kind: type) -> bool:
-    """Whether a closure-parameter annotation accepts values of ``kind`` (str or bool)."""
-    if annotation is kind or annotation is Any:
-        return True
-    if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
-        return any(isinstance(m.value, kind) for m in annotation)
-    origin = typing.get_origin(annotation)
-    if origin is Literal:
-        return any(isinstance(a, kind) for a in typing.get_args(annotation))
-    if origin in (typing.Union, types.UnionType):
-        return any(_accepts(a, kind) for a in typing.get_args(annotation))
-    return False
-
-
 def _registry_errors(data: Any, material: Material) -> list[str]:
     """Build the closure (or check the equilibrium law) of the raw section; errors named."""
     from granflow.equilibrium import EQUILIBRIUM_LAWS
@@ -472,7 +477,7 @@ def _registry_errors(data: Any, material: Material) -> list[str]:
         field = cls.model_fields.get(key)
         if key in ("material", "equilibrium"):
             errors.append(f"closure.{_key(key)}: not a closure parameter; use the [{key}] section")
-        elif field is not None and isinstance(value, (str, bool)) and not _accepts(field.annotation, type(value)):
+        elif field is not None and isinstance(value, (str, bool)) and not accepts(field.annotation, type(value)):
             errors.append(f"closure.{_key(key)}: Input should be a number (got {_show(value)})")
     if errors:
         return errors
@@ -502,7 +507,47 @@ def _common_problems(cfg: CaseConfig) -> list[tuple[str, str]]:
     bad = [x for x in cfg.output.probes_x if not 0.0 <= x <= length]
     if bad:
         out.append(("output.probes_x", f"{bad} outside the box [0, {key} = {length}]"))
+    t = cfg.time
+    if t.max_steps is None and t.stop_time / t.dt_max > MAX_STEPS:
+        out.append(("time.dt_max", f"stop_time / dt_max = {t.stop_time:g} s / {t.dt_max:g} s = "
+                                   f"{t.stop_time / t.dt_max:.3g} steps at least, more than the step "
+                                   f"budget of {MAX_STEPS} (granflow.config.MAX_STEPS): the run could "
+                                   "not reach stop_time; raise time.dt_max, or set time.max_steps to "
+                                   "run part of it"))
+    if not cfg.case.allow_unphysical:
+        for name, (lo, hi, unit) in PHYSICAL_RANGES.items():
+            section, field = name.split(KEY_SEP)
+            value = getattr(getattr(cfg, section), field)
+            if not lo <= value <= hi:
+                out.append((name, f"{value:g} {unit} is outside the physical range [{lo:g}, {hi:g}] "
+                                  f"{unit} (set case.allow_unphysical = true for an unusual study)"))
+    column = [(f"setup.{k}", getattr(cfg.setup, k)) for k in COLUMN_KEYS if hasattr(cfg.setup, k)]
+    column_key, height = column[0] if column else ("grid.Lz", cfg.grid.Lz)
+    if isinstance(height, float) and not cfg.material.d < height:
+        out.append(("material.d", f"grain diameter {cfg.material.d:g} m is not smaller than the "
+                                  f"column ({column_key} = {height:g} m)"))
+    out += _yield_problems(cfg)
     return out
+
+
+def _yield_problems(cfg: CaseConfig) -> list[tuple[str, str]]:
+    """The yield function Z must be >= 0 on the equilibrium line phi = phi_eq(I) (a negative Z
+    is a negative friction coefficient: the solver would only count the cells where it is)."""
+    import numpy as np
+
+    closure = cfg.make_closure()
+    I = np.concatenate([[EQUILIBRIUM_I[0]], np.logspace(-6, np.log10(EQUILIBRIUM_I[1]), 60)])
+    with np.errstate(all="ignore"):
+        phi = np.asarray(closure.equilibrium.phi_eq(I), dtype=float)
+        keep = phi > 0
+        Z = np.asarray(closure.Z(phi[keep], I[keep]), dtype=float)
+    negative = np.flatnonzero(Z < 0)
+    if not negative.size:
+        return []
+    k = negative[0]
+    key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
+    return [(key, f"the yield function is negative on the equilibrium line: Z(phi_eq(I), I) = "
+                  f"{Z[k]:.3g} at I = {I[keep][k]:.3g} (a negative friction coefficient)")]
 
 
 def _validate(data: dict[str, Any]) -> CaseConfig:

@@ -5,20 +5,68 @@ is an error naming it, a value out of range is an error naming the key and the a
 """
 from __future__ import annotations
 
-from typing import Any, TypeVar
+import enum
+import types
+import typing
+from typing import Any, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator
 
 from granflow.errors import GranflowInputError
 
 M = TypeVar("M", bound=BaseModel)
 
 
+def accepts(annotation: Any, kind: type) -> bool:
+    """Whether a field annotation accepts values of ``kind`` (``str`` or ``bool``) as they are."""
+    if annotation is kind or annotation is Any:
+        return True
+    if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
+        return any(isinstance(m.value, kind) for m in annotation)
+    origin = typing.get_origin(annotation)
+    if origin is Literal:
+        return any(isinstance(a, kind) for a in typing.get_args(annotation))
+    if origin in (typing.Union, types.UnionType):
+        return any(accepts(a, kind) for a in typing.get_args(annotation))
+    return False
+
+
+def _element_type(annotation: Any) -> Any:
+    """The element annotation of ``tuple[X, ...]`` / ``list[X]`` (None for anything else)."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        found = [e for e in map(_element_type, typing.get_args(annotation)) if e is not None]
+        return found[0] if found else None
+    if origin in (tuple, list):
+        args = [a for a in typing.get_args(annotation) if a is not Ellipsis]
+        return args[0] if len(set(args)) == 1 else None
+    return None
+
+
+def refuse_text_numbers(value: Any, annotation: Any) -> None:
+    """Raise ``ValueError`` for a string given where the annotation wants a number (no silent
+    conversion of ``"0.2"`` to 0.2), also for the elements of a tuple or list."""
+    if isinstance(value, str) and not accepts(annotation, str):
+        raise ValueError(f"Input should be a number, not the text {value!r}")
+    element = _element_type(annotation)
+    if element is not None and isinstance(value, (list, tuple)):
+        for item in value:
+            refuse_text_numbers(item, element)
+
+
 class Params(BaseModel):
     """Base class of granflow's parameter models: frozen, strict about unknown keys, validated on
-    construction and on copy."""
+    construction and on copy; a number given as text (``"0.2"``) is refused, not converted."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", validate_default=True)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_text_numbers(cls, value: Any, info: ValidationInfo) -> Any:
+        field = cls.model_fields.get(info.field_name) if info.field_name else None
+        if field is not None:
+            refuse_text_numbers(value, field.annotation)
+        return value
 
 
 def format_validation_error(err: ValidationError, context: str = "") -> str:

@@ -247,12 +247,43 @@ def flatten_scalars(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]
 def _check_member_dir(member_dir: Path, member_id: str, overrides: Mapping[str, Any]) -> None:
     """Refuse to reuse a directory that belongs to a different member definition."""
     path = member_dir / MEMBER_FILE
-    if path.is_file():
-        previous = json.loads(path.read_text()).get("overrides")
+    if path.exists() or path.is_symlink():
+        try:
+            previous = json.loads(path.read_text(encoding="utf-8")).get("overrides")
+        except (OSError, UnicodeDecodeError, ValueError, AttributeError, RecursionError):
+            raise GranflowInputError(f"{path}: exists and is not the member.json of a granflow "
+                                     "sweep; use a new output directory") from None
         if previous != jsonable(dict(overrides)):
             raise GranflowInputError(
                 f"{member_dir}: holds member {member_id} of a different sweep (overrides "
                 f"{previous} != {jsonable(dict(overrides))}); use a new output directory")
+
+
+def check_sweep_directory(spec: SweepSpec, outdir: str | Path) -> None:
+    """Refuse a sweep directory that holds something else than this sweep: a ``sweep.json`` not
+    written by :func:`run_sweep`, or a member directory of another member definition.
+
+    Raises
+    ------
+    GranflowInputError
+        Naming the file.
+    """
+    out = Path(outdir)
+    _check_spec_file(out / SPEC_FILE)
+    for member_id, overrides in spec.members():
+        _check_member_dir(out / member_id, member_id, overrides)
+
+
+def _check_spec_file(path: Path) -> None:
+    """Refuse a sweep directory whose ``sweep.json`` was not written by :func:`run_sweep`."""
+    if not (path.exists() or path.is_symlink()):
+        return
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        SweepSpec.from_dict(data)
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, RecursionError):
+        raise GranflowInputError(f"{path}: exists and is not the sweep.json of a granflow sweep; "
+                                 "use a new output directory") from None
 
 
 def _write_table(path: Path, rows: list[dict[str, Any]], override_keys: list[str]) -> None:
@@ -278,7 +309,7 @@ def _write_table(path: Path, rows: list[dict[str, Any]], override_keys: list[str
 
 def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
               outdir: str | Path, scheduler: str | None = None,
-              workers: int | None = None) -> Path:
+              workers: int | None = None, started: Callable[[], None] | None = None) -> Path:
     """Run every member of ``spec`` with ``run_member`` on a Dask cluster; return the CSV table.
 
     Parameters
@@ -295,6 +326,9 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         ``distributed.LocalCluster`` of ``workers`` single-threaded processes, closed at the end.
     workers : int, optional
         Worker processes of the local cluster (default 2); not allowed with ``scheduler``.
+    started : callable, optional
+        Called once the cluster is reached (before anything is written), e.g. to announce the
+        sweep: an unreachable scheduler raises ``OSError`` before it, with nothing written.
 
     Returns
     -------
@@ -316,35 +350,41 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         raise ImportError("sweeps need Dask: pip install 'granflow[sweep]'") from err
 
     out = Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(out / SPEC_FILE, spec.model_dump(mode="json"))
+    check_sweep_directory(spec, out)
     members = spec.members()
     rows: dict[str, dict[str, Any]] = {}
     todo = []
     for member_id, overrides in members:
         mdir = out / member_id
-        _check_member_dir(mdir, member_id, overrides)
         row = {"member_id": member_id, "overrides": jsonable(overrides), "cached": False}
         rows[member_id] = row
         if (mdir / SUMMARY_FILE).is_file():
             summary = json.loads((mdir / SUMMARY_FILE).read_text())
             row.update(status=STATUS_OK, cached=True, summary=flatten_scalars(summary))
             continue
-        mdir.mkdir(exist_ok=True)
-        config = spec.config(overrides)
-        write_json_atomic(mdir / MEMBER_FILE, {"member_id": member_id, "overrides": overrides,
-                                               "config": config})
-        todo.append((member_id, config, str(mdir)))
+        todo.append((member_id, overrides, mdir))
 
-    if todo:
-        cluster = client = None
-        try:
+    cluster = client = None
+    try:
+        if todo:  # connect first: an unreachable scheduler must not leave files behind
             if scheduler is None:
                 cluster = LocalCluster(n_workers=workers or DEFAULT_WORKERS, threads_per_worker=1,
                                        processes=True, dashboard_address=LOCAL_DASHBOARD)
             client = Client(cluster if cluster is not None else scheduler)
+        if started is not None:
+            started()
+        out.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(out / SPEC_FILE, spec.model_dump(mode="json"))
+        tasks = []
+        for member_id, overrides, mdir in todo:
+            mdir.mkdir(exist_ok=True)
+            config = spec.config(overrides)
+            write_json_atomic(mdir / MEMBER_FILE, {"member_id": member_id, "overrides": overrides,
+                                                   "config": config})
+            tasks.append((member_id, config, str(mdir)))
+        if tasks:
             futures = {client.submit(run_member_task, run_member, config, mdir, pure=False): mid
-                       for mid, config, mdir in todo}
+                       for mid, config, mdir in tasks}
             for future in as_completed(futures):
                 mid = futures[future]
                 try:
@@ -358,11 +398,11 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
                     rows[mid].update(status=status, summary=flatten_scalars(result))
                 else:
                     rows[mid].update(status=status, summary={}, error=result["error"])
-        finally:
-            if client is not None:
-                client.close()
-            if cluster is not None:
-                cluster.close()
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
 
     table = out / TABLE_FILE
     _write_table(table, [rows[mid] for mid, _ in members], list(spec.parameters))

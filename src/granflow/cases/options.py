@@ -28,6 +28,8 @@ from granflow.config import (
     _OpenSection,
 )
 from granflow.errors import GranflowInputError
+from granflow.cli.overrides import _short
+from granflow.safe_toml import loads, loads_value
 
 
 def parse_override(item: str) -> tuple[list[str], Any]:
@@ -35,13 +37,8 @@ def parse_override(item: str) -> tuple[list[str], Any]:
     key, sep, text = item.partition("=")
     parts = [p.strip() for p in key.split(KEY_SEP)]
     if not sep or not all(parts):
-        raise GranflowInputError(f"--set {item!r}: expected section.key=value, e.g. grid.nx=80")
-    text = text.strip()
-    try:
-        value = tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = text
-    return parts, value
+        raise GranflowInputError(f"--set {_short(item)}: expected section.key=value, e.g. grid.nx=80")
+    return parts, loads_value(text.strip(), key.strip())
 
 
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
@@ -53,7 +50,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
         for i, part in enumerate(parts[:-1]):
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
-                raise GranflowInputError(f"--set {item!r}: {KEY_SEP.join(parts[:i + 1])} is not a table")
+                raise GranflowInputError(f"--set {_short(item)}: {KEY_SEP.join(parts[:i + 1])} is not a table")
         node[parts[-1]] = value
     return out
 
@@ -72,7 +69,7 @@ def read_toml(path: str | Path) -> tuple[str, dict[str, Any]]:
         raise GranflowInputError(f"{p}: not UTF-8 text (byte 0x{raw[err.start]:02x} at line {line}); "
                                  "case files are UTF-8 TOML") from None
     try:
-        return text, tomllib.loads(text)
+        return text, loads(text, str(p))
     except tomllib.TOMLDecodeError as err:
         raise GranflowInputError(f"{p}: TOML syntax error: {_one_line(str(err))}") from None
 

@@ -34,7 +34,9 @@ import netCDF4
 import numpy as np
 
 from granflow import diagnostics as dg
+from granflow.cases.memory import check_memory
 from granflow.cases.registry import CASES
+from granflow.cases.restart import CHECKPOINT_DIR, check_checkpoint, resolve_checkpoint
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.output import (
@@ -44,15 +46,16 @@ from granflow.output import (
     load_checkpoint,
     write_json_atomic,
 )
-from granflow.output.checkpoint import CHECKPOINT_GLOB
 from granflow.output.netcdf import git_revision
+from granflow.output.paths import check_directory
 from granflow.simulation import IterationInterval, Simulation, StepFailure, TimeInterval
 
 logger = logging.getLogger(__name__)
 
 OUTPUT_FILE = "output.nc"
 SUMMARY_FILE = "summary.json"
-CHECKPOINT_DIR = "checkpoints"
+RUN_FILES = (OUTPUT_FILE, SUMMARY_FILE)
+"""Files of a run directory that must be writable files (checked before the run starts)."""
 REST_SPEED_FACTOR = 10.0
 """Default rest speed = REST_SPEED_FACTOR eps Lz [m s^-1] (eps Lz is the creep speed scale)."""
 EVERY_STEP = 1
@@ -121,20 +124,6 @@ class RunResult:
     checkpoint: Path | None
 
 
-def resolve_checkpoint(path: str | Path) -> Path:
-    """A checkpoint file, or the newest checkpoint of a run directory (or of its checkpoints/)."""
-    p = Path(path)
-    if p.is_dir():
-        for d in (p / CHECKPOINT_DIR, p):
-            if any(d.glob(CHECKPOINT_GLOB)):
-                latest = CheckpointManager(d, keep=None).latest()
-                if latest is not None:
-                    return latest
-        raise GranflowInputError(f"--restart {p}: no {CHECKPOINT_GLOB} in this directory or its "
-                                 f"{CHECKPOINT_DIR}/")
-    return p
-
-
 class CaseRun:
     """A case with its output in ``directory`` (see the module docstring).
 
@@ -156,11 +145,13 @@ class CaseRun:
                  progress: Callable[[Progress], None] | None = None, overwrite: bool = False) -> None:
         self.config = config
         self.case = CASES.get(config.case.name)
-        self.directory = Path(directory)
+        self.directory = check_directory(directory, "output directory", files=RUN_FILES,
+                                         subdirs=(CHECKPOINT_DIR,))
         self.output_path = self.directory / OUTPUT_FILE
         if restart is None and self.output_path.exists() and not overwrite:
             raise GranflowInputError(f"{self.output_path} exists; continue it with --restart "
                                      f"{self.directory}, or replace it with --overwrite")
+        check_memory(config)
         self.sim: Simulation = self.case.setup(config)
         self.grid = self.sim.model.grid
         self.phi_max = self.sim.model.material.phi_max
@@ -176,6 +167,7 @@ class CaseRun:
         self.rest_speed = (out.rest_speed if out.rest_speed is not None
                            else REST_SPEED_FACTOR * config.numerics.eps * self.grid.Lz)
         self.progress = progress
+        self.warnings: list[str] = []
         self.front_t: list[float] = []
         self.front_x: list[float] = []
         self.mass0 = dg.mass(self.grid, self.sim.state.phi)
@@ -190,11 +182,11 @@ class CaseRun:
         self.sim.add_callback(self._monitor, IterationInterval(EVERY_STEP), name="monitor")
         self.sim.add_callback(self._periodic_checkpoint, IterationInterval(out.checkpoint_interval),
                               name="checkpoint")
+        if restart is not None:  # every check of the checkpoint before anything is written
+            self._restore(resolve_checkpoint(restart))
         self.directory.mkdir(parents=True, exist_ok=True)
         self.checkpoints = CheckpointManager(self.directory / CHECKPOINT_DIR, keep=out.checkpoint_keep)
-        if restart is not None:
-            self._restore(resolve_checkpoint(restart))
-        else:
+        if restart is None:
             for old in self.checkpoints.steps():
                 self.checkpoints.path(old).unlink(missing_ok=True)
         self._session_t0 = (self.sim.state.t, time.perf_counter())
@@ -264,9 +256,35 @@ class CaseRun:
             probes = {"probe_p_f": st.p_f[self.probe_cells, 0], "probe_p": st.p[self.probe_cells, 0]}
         self.writer.append(t, {**self._fields(), "kinetic_energy": np.float64(sim.budget.e_k),
                                "x_front": np.float64(x_f), **probes})
+        self._check_equilibrium_range()
         self._last_out_t = t
         self.front_t.append(t)
         self.front_x.append(x_f)
+
+    def _check_equilibrium_range(self) -> None:
+        """Warn (once) when the run reaches an I at which phi_eq(I) < 0 (e.g. a large
+        material.delta_phi): the equilibrium law is then outside its meaning."""
+        if self.warnings:
+            return
+        m, st = self.sim.model, self.sim.state
+        grains = (st.phi >= m.ambient.phi_c) & (st.p > 0)
+        if not np.any(grains):
+            return
+        S = m.ops.strain_rate_norm(st.vel).reshape(self.grid.cell_shape)
+        I = m.material.inertial_number(S[grains], st.p[grains])
+        I = I[np.isfinite(I)]
+        if not I.size:
+            return
+        I_max = float(I.max())
+        law = m.closure.equilibrium
+        phi_eq = float(law.phi_eq(I_max))
+        if phi_eq < 0:
+            text = (f"granflow: warning: phi_eq(I) = {phi_eq:.3g} < 0 at I = {I_max:.3g}, reached at "
+                    f"t = {st.t:.6g} s (equilibrium law {self.config.equilibrium.law!r}, "
+                    f"delta_phi = {getattr(law, 'delta_phi', float('nan')):g}): the dilatancy law "
+                    "is outside its range; lower delta_phi or use a law with phi_eq > 0 at every I")
+            self.warnings.append(text)
+            logger.warning(text)
 
     # --- monitor, checkpoints -------------------------------------------------------------------
     def _speeds(self) -> tuple[float, float]:
@@ -339,13 +357,7 @@ class CaseRun:
 
     def _restore(self, path: Path) -> None:
         arrays, scalars, meta = load_checkpoint(path)
-        if meta.get("case") != self.config.case.name:
-            raise GranflowInputError(f"--restart {path}: checkpoint of case {meta.get('case')!r}, "
-                                     f"not {self.config.case.name!r}")
-        g = self.grid
-        if meta.get("grid") != [g.nx, g.nz, g.Lx, g.Lz]:
-            raise GranflowInputError(f"--restart {path}: checkpoint grid (nx, nz, Lx, Lz) = "
-                                     f"{meta.get('grid')} differs from the case's {[g.nx, g.nz, g.Lx, g.Lz]}")
+        check_checkpoint(path, arrays, scalars, meta, self.config, self.grid, self.phi_max)
         try:
             self.sim.restore_checkpoint(arrays, scalars)
             self.front_t = [float(v) for v in arrays["run.front_t"]]
@@ -420,6 +432,7 @@ class CaseRun:
         closure = sim.model.closure
         return {
             "case": cfg.case.name, "status": status.value, "message": message,
+            "warnings": list(self.warnings),
             "t_final": st.t, "stop_time": cfg.time.stop_time, "steps": st.step,
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
             "runout_m": x_final - x_first,

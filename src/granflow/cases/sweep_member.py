@@ -49,7 +49,11 @@ def validate_member(config: Mapping[str, Any]) -> CaseConfig:
     GranflowInputError
         Every problem, each naming its key path (see :meth:`CaseConfig.from_dict`).
     """
-    return CaseConfig.from_dict(config)
+    from granflow.cases.memory import check_memory
+
+    cfg = CaseConfig.from_dict(config)
+    check_memory(cfg)
+    return cfg
 
 
 def summary_scalars(summary: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

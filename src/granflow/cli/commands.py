@@ -76,11 +76,41 @@ def closure_from_args(args: argparse.Namespace):
     )
 
 
+def _finite(args: argparse.Namespace, *names: str) -> None:
+    """Refuse NaN or infinite numeric options (argparse's float() accepts "inf" and "nan")."""
+    import math
+
+    for name in names:
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):
+            raise GranflowInputError(f"--{name.replace('_', '-')} must be a finite number (got {value})")
+
+
 def _all_pass(report_dict: dict) -> bool:
     return all(c["pass"] for c in report_dict["conditions"].values())
 
 
+def _check_plot_path(path: str | None) -> None:
+    """``--plot PNG``: a writable file of an image format matplotlib writes (before computing)."""
+    if path is None:
+        return
+    from pathlib import Path
+
+    from granflow.cli.plot import _check_format
+    from granflow.output.paths import check_file
+
+    check_file(path, "--plot")
+    _check_format(Path(path), "--plot")
+
+
+def _make_parent(path: str) -> None:
+    from pathlib import Path
+
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+
+
 def cmd_check(args: argparse.Namespace) -> int:
+    _check_plot_path(args.plot)
     closure = closure_from_args(args)
     from granflow.theory.conditions import check
 
@@ -89,6 +119,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.plot:
         from granflow import plotting
 
+        _make_parent(args.plot)
         plotting.closure_overview(closure, args.plot)
         data["plot"] = args.plot
     if args.json:
@@ -103,6 +134,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_window(args: argparse.Namespace) -> int:
+    _finite(args, "mu1", "mu2", "I0", "c_I")
     for name in ("mu1", "mu2", "I0", "c_I"):
         if not getattr(args, name) > 0:
             raise GranflowInputError(f"--{name.replace('_', '-')} must be positive (got {getattr(args, name)})")
@@ -123,6 +155,8 @@ def cmd_window(args: argparse.Namespace) -> int:
 def cmd_dispersion(args: argparse.Namespace) -> int:
     import numpy as np
 
+    _check_plot_path(args.plot)
+    _finite(args, "phi", "p", "I", "p_f")
     closure = closure_from_args(args)
     if not args.p > 0:
         raise GranflowInputError(f"--p must be positive (got {args.p})")
@@ -151,6 +185,7 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
     if args.plot:
         from granflow import plotting
 
+        _make_parent(args.plot)
         plotting.growth_figure(lead, curve, args.plot,
                                title=f"{closure.name}: phi={phi:.4g}, p={args.p:g} Pa, I={args.I:g}")
         data["plot"] = args.plot
@@ -185,12 +220,12 @@ def cmd_derive(args: argparse.Namespace) -> int:
 
     from granflow.rheology import derive_dilatancy, make_closure
 
-    derivation = derive_dilatancy(args.expression)
-    ov = parse_overrides(args.set)
+    ov = parse_overrides(args.set)  # bad --set items before the derivation
     if ov["closure"]:
         raise GranflowInputError(
             f"derive: unexpected closure parameter(s) {', '.join(ov['closure'])}; only material.* and equilibrium.*"
         )
+    derivation = derive_dilatancy(args.expression)
     closure = make_closure(
         "generic", material=ov["material"] or None, equilibrium=args.equilibrium,
         equilibrium_params=ov["equilibrium"], expression=args.expression,

@@ -25,9 +25,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     from granflow.cli.plot import open_run, resolve_output
     from granflow.output.vtk import export_run
 
+    from granflow.output.paths import check_directory
+
     nc = resolve_output(args.run)
+    outdir = check_directory(args.out if args.out is not None else nc.parent / "vtk",
+                             "--out" if args.out is not None else "output directory (default RUN/vtk)")
     ds = open_run(nc)
-    outdir = Path(args.out) if args.out else nc.parent / "vtk"
     paths = export_run(ds, outdir)
     print(f"wrote {len(paths)} VTK file(s) to {outdir}/ (open {paths[0].name} ... in ParaView as a series)")
     return ExitCode.OK

@@ -4,7 +4,8 @@
 snapshot shows ``--var`` at the record nearest to ``--time`` (default: the last record) with the
 free surface, the phi = phi_c contour (``numerics.ambient.phi_c`` of the run); the colour bar
 carries the variable's ``long_name`` and ``units`` attributes. ``--animate OUT.gif`` writes one
-frame per record (matplotlib's PillowWriter). Bad input (missing or unreadable file, a variable
+frame per record (matplotlib's PillowWriter). Bad input (missing, unreadable or truncated file
+(:func:`granflow.output.integrity.check_complete`), an unwritable --out or --animate, a variable
 the file does not hold, a time outside the records, an unsupported image format) exits with
 code 2 and one line ``granflow: error: ...``.
 """
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from granflow.cli import ExitCode
 from granflow.errors import GranflowInputError
+from granflow.output.paths import check_directory, check_file
 
 OUTPUT_FILE = "output.nc"
 """File of a run directory that is plotted (:data:`granflow.cases.runner.OUTPUT_FILE`)."""
@@ -57,6 +59,9 @@ def open_run(path: Path):
     """Load a run's NetCDF file into memory; an unreadable file is bad input."""
     import xarray as xr
 
+    from granflow.output.integrity import check_complete
+
+    check_complete(path)  # a truncated classic file opens with zeros for the missing records
     try:
         with xr.open_dataset(path) as ds:
             ds = ds.load()
@@ -105,13 +110,13 @@ def record_index(times, t: float | None, path: Path) -> int:
     return int(np.argmin(np.abs(times - t)))
 
 
-def _check_format(path: Path) -> None:
+def _check_format(path: Path, what: str = "--out") -> None:
     from matplotlib.backend_bases import FigureCanvasBase
 
     fmt = path.suffix.lstrip(".").lower()
     supported = FigureCanvasBase.get_supported_filetypes()
     if fmt not in supported:
-        raise GranflowInputError(f"--out {path}: unsupported image format {fmt!r} (use one of: "
+        raise GranflowInputError(f"{what} {path}: unsupported image format {fmt!r} (use one of: "
                                  f"{', '.join(sorted(supported))})")
 
 
@@ -120,8 +125,15 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from granflow import plotting
 
     nc = resolve_output(args.run)
-    if args.animate is not None and Path(args.animate).suffix.lower() != GIF_SUFFIX:
-        raise GranflowInputError(f"--animate {args.animate}: expected a {GIF_SUFFIX} file")
+    if args.animate is not None:
+        check_file(args.animate, "--animate")
+        if Path(args.animate).suffix.lower() != GIF_SUFFIX:
+            raise GranflowInputError(f"--animate {args.animate}: expected a {GIF_SUFFIX} file")
+    if args.out is not None:
+        check_file(args.out, "--out")
+        _check_format(Path(args.out))
+    elif args.animate is None:
+        check_directory(nc.parent, "RUN (the default --out goes there)")
     ds = open_run(nc)
     check_variable(ds, args.var, nc)
     index = record_index(ds["time"].values, args.time, nc)

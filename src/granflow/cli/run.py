@@ -50,7 +50,9 @@ EXIT_CODES_HELP = f"""exit codes:
        a final checkpoint of the last good state and summary.json are kept
   {RunExit.BAD_INPUT:<4d} bad input, before any computation: case-file error naming the key
        (unknown key, wrong type, NaN, out of range, unknown closure/case, TOML syntax with
-       line/column), unreadable or mismatched --restart checkpoint, existing output
+       line/column), unreadable, insane (NaN, phi out of range) or mismatched (case, grid,
+       physics) --restart checkpoint, existing output, an output directory that cannot be
+       written, a grid beyond the memory available; nothing is written
   {RunExit.INTERNAL:<4d} internal error (a bug): traceback printed; output and summary.json kept
   {RunExit.INTERRUPTED:<4d} interrupted (Ctrl-C): stopped after the current step, checkpoint, output
        and summary.json written; continue with --restart DIR"""
@@ -221,11 +223,18 @@ def stop_on_sigint(sim) -> Iterator[None]:
 # run
 # --------------------------------------------------------------------------------------------
 def output_directory(args: argparse.Namespace, config) -> Path:
-    if args.out:
-        return Path(args.out)
-    if config.output.directory:
-        return Path(config.output.directory)
-    return Path(DEFAULT_RUNS_DIR) / Path(args.case).stem
+    """The run directory, checked for writability (nothing created): ``--out``, else
+    ``output.directory``, else ``runs/<case-file name>``."""
+    from granflow.cases.runner import CHECKPOINT_DIR, RUN_FILES
+    from granflow.output.paths import check_directory
+
+    if args.out is not None:
+        out, what = args.out, "--out"
+    elif config.output.directory:
+        out, what = config.output.directory, "output.directory"
+    else:
+        out, what = Path(DEFAULT_RUNS_DIR) / Path(args.case).stem, "output directory (default)"
+    return check_directory(out, what, files=RUN_FILES, subdirs=(CHECKPOINT_DIR,))
 
 
 def cmd_run(args: argparse.Namespace) -> int:

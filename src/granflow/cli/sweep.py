@@ -54,8 +54,9 @@ EXIT_CODES_HELP = f"""exit codes:
        and in sweep_summary.csv); the other members ran. Run the same command again to retry
        the failed members only (finished members are skipped).
   {ExitCode.BAD_INPUT:<4d} bad input, before any member runs: sweep-file or base-case errors, an invalid
-       member configuration (named), --workers with --scheduler, DIR holding another sweep;
-       also an unreachable --scheduler (after Dask's connect timeout, 30 s by default)
+       member configuration (named), --workers with --scheduler, a base that is a sweep
+       file, DIR holding another sweep or a foreign sweep.json, an unwritable --out; also an
+       unreachable --scheduler (after Dask's connect timeout, 30 s by default); nothing written
   {ExitCode.INTERNAL:<4d} internal error (a bug): traceback printed
   Ctrl-C stops the sweep (exit 1); run the same command again to finish it."""
 
@@ -156,7 +157,13 @@ def load_sweep(path: str | Path):
         raise GranflowInputError(f"{path}: missing or empty [{PARAMETERS_TABLE}] table")
     parameters = flatten_parameters(params)
     base_path = path.parent / base
+    if base_path.resolve() == path.resolve():
+        raise GranflowInputError(f"{path}: {SWEEP_TABLE}.base = {base!r} is this sweep file; give "
+                                 "the case file the members are made from")
     _, base_data = read_toml(base_path)
+    if SWEEP_TABLE in base_data or PARAMETERS_TABLE in base_data:
+        raise GranflowInputError(f"{path}: {SWEEP_TABLE}.base = {base!r} is a sweep file, not a "
+                                 "case file")
     base_data = with_all_sections(base_data)
     spec_data = {k: v for k, v in sweep.items() if k != "base"}
     try:
@@ -250,13 +257,25 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     workers = None if args.scheduler is not None else (args.workers or LOCAL_WORKERS)
     spec, base_path = load_sweep(args.sweep_file)
     n = validate_members(spec)
-    out = Path(args.out) if args.out else Path(DEFAULT_RUNS_DIR) / Path(args.sweep_file).stem
-    out = out.resolve()  # the workers may not share our working directory
+    from granflow.output.paths import check_directory
+    from granflow.sweep import SPEC_FILE, TABLE_FILE, check_sweep_directory
+
+    if args.out is not None:
+        out, what = args.out, "--out"
+    else:
+        out, what = Path(DEFAULT_RUNS_DIR) / Path(args.sweep_file).stem, "output directory (default)"
+    out = check_directory(out, what, files=(SPEC_FILE, TABLE_FILE)).resolve()  # the workers
+    # may not share our working directory
+    check_sweep_directory(spec, out)
     where = f"scheduler {args.scheduler}" if args.scheduler else "a local Dask cluster"
-    print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
-          file=sys.stderr, flush=True)
+
+    def started() -> None:
+        print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
+              file=sys.stderr, flush=True)
+
     try:
-        table = run_sweep(spec, run_member, out, scheduler=args.scheduler, workers=workers)
+        table = run_sweep(spec, run_member, out, scheduler=args.scheduler, workers=workers,
+                          started=started)
     except OSError as err:  # e.g. the scheduler cannot be reached, out not writable
         hint = f" (--scheduler {args.scheduler})" if args.scheduler else ""
         raise GranflowInputError(f"sweep{hint}: {type(err).__name__}: {err}") from None

@@ -11,6 +11,7 @@ and the divergence law is finite as |S| -> 0), else 1.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import sympy as sp
@@ -49,7 +50,7 @@ def parse_yield_function(text: str) -> sp.Expr:
     if not isinstance(text, str) or not text.strip():
         raise GranflowInputError("yield function: expected a non-empty expression in phi and I")
     if any(tok in text for tok in ("__", "lambda", "import", ";")):
-        raise GranflowInputError(f"yield function {text!r}: forbidden token")
+        raise GranflowInputError(f"yield function {_text(text)}: forbidden token")
     local = {"phi": phi, "I": I, **_ALLOWED_FUNCTIONS}
     try:
         expr = parse_expr(
@@ -60,9 +61,9 @@ def parse_yield_function(text: str) -> sp.Expr:
             evaluate=True,
         )
     except Exception as err:  # SyntaxError, TokenError, TypeError, ... from the parser
-        raise GranflowInputError(f"yield function {text!r} does not parse: {err}") from None
+        raise GranflowInputError(f"yield function {_text(text)} does not parse: {err}") from None
     if not isinstance(expr, sp.Expr):
-        raise GranflowInputError(f"yield function {text!r} is not an expression")
+        raise GranflowInputError(f"yield function {_text(text)} is not an expression")
     # Decimal numbers become exact rationals (0.26 -> 13/50), so that the integration constants of
     # W cancel exactly and the limits of W at I = 0 and I = inf are exact (with floats,
     # 0.117*log(0.3) - 0.140864818106135 leaves a 1e-17/I term and a spurious limit -inf).
@@ -70,8 +71,30 @@ def parse_yield_function(text: str) -> sp.Expr:
     extra = expr.free_symbols - {phi, I}
     if extra:
         names = ", ".join(sorted(str(s) for s in extra))
-        raise GranflowInputError(f"yield function {text!r}: unknown symbol(s) {names}; use phi and I only")
+        raise GranflowInputError(f"yield function {_text(text)}: unknown symbol(s) {names}; use phi and I only")
+    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise GranflowInputError(f"yield function {_text(text)}: not finite (it holds {sp.zoo if expr.has(sp.zoo) else 'oo or nan'}: "
+                                 "a division by zero or an infinite constant)")
+    for number in expr.atoms(sp.Number):
+        try:
+            finite = math.isfinite(float(number))
+        except (OverflowError, ValueError, TypeError):
+            finite = False
+        if not finite:
+            raise GranflowInputError(f"yield function {_text(text)}: the constant {_short(number)} is "
+                                     "outside the range of double precision (|x| < 1.8e308)")
     return expr
+
+
+def _text(text: str) -> str:
+    """The expression for a one-line message (long text cut)."""
+    shown = repr(text)
+    return shown if len(shown) <= 80 else shown[:77] + "..."
+
+
+def _short(number) -> str:
+    text = str(number)
+    return text if len(text) <= 30 else f"{text[:12]}...({len(text)} digits)"
 
 
 @dataclass(frozen=True)
