@@ -94,9 +94,10 @@ def test_options_the_case_sets_itself_are_rejected_by_name(section, key):
 
 def test_unset_dimensional_numerics_take_dimensionless_values():
     sim = CASES.get(CASE).setup(config())
-    assert sim.model.delta_p == 1e-3 and sim.model.ambient.rho_a == 1e-2
-    sim = CASES.get(CASE).setup(config(numerics={"delta_p": 0.5, "ambient": {"rho_a": 0.1}}))
-    assert sim.model.delta_p == 0.5 and sim.model.ambient.rho_a == 0.1
+    # Basilisk's granular.h ambient: RHOF = 1e-3, mug = 1e-4
+    assert sim.model.delta_p == 1e-3 and sim.model.ambient.rho_a == 1e-3 and sim.model.ambient.eta_a == 1e-4
+    sim = CASES.get(CASE).setup(config(numerics={"delta_p": 0.5, "ambient": {"rho_a": 0.1, "eta_a": 2e-3}}))
+    assert sim.model.delta_p == 0.5 and sim.model.ambient.rho_a == 0.1 and sim.model.ambient.eta_a == 2e-3
 
 
 def test_example_runs_and_reports_a_dimensionless_runout(tmp_path):

@@ -18,6 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import granflow.model as gm
+import granflow.step as gstep
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.model import Model
@@ -76,7 +77,7 @@ def capture(model: Model, state: State, dt: float) -> list[dict]:
         mp.setattr(model, "coefficients", coefficients)
         mp.setattr(asm, "saddle", saddle)
         mp.setattr(asm, "velocity_data", velocity_data)
-        mp.setattr(gm, "spla", types.SimpleNamespace(spsolve=spsolve))
+        mp.setattr(gstep, "spla", types.SimpleNamespace(spsolve=spsolve))
         report = model.advance(state, dt)
     assert not report.failed, report.message
     assert len(systems) == len(coefs) == len(actives) == len(masses) >= 1

@@ -52,7 +52,7 @@ def captured_systems(steps: int = 3) -> list[tuple[sp.spmatrix, np.ndarray]]:
     """The matrices and right-hand sides a direct-solver Model solves in ``steps`` steps."""
     model, state = column("direct")
     systems = []
-    import granflow.model as gm
+    import granflow.step as gm  # the stage that calls the direct solver
 
     class Capture:
         @staticmethod

@@ -108,7 +108,7 @@ def test_banded_step_is_the_whole_system_with_the_far_ambient_at_rest():
     s_band = banded.initial_state(phi)
     keep = banded.velocity_region(phi)
     captured = {}
-    import granflow.model as model_module
+    import granflow.step as model_module  # the stage that calls the direct solver
 
     real = model_module.spla.spsolve
 

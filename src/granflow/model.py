@@ -73,14 +73,13 @@ The dry model keeps ``state.p_f`` untouched (zero). The fluidised model stores `
 from __future__ import annotations
 
 import time
-import warnings
 
 import numpy as np
-import scipy.sparse.linalg as spla
 from scipy.ndimage import maximum_filter
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, VelocityBCs
+from granflow import step
 from granflow.model_options import (  # re-exported: the Model's options and step report
     AUTO_AMG_UNKNOWNS,
     AUTO_BANDED_DIRECT_UNKNOWNS,
@@ -101,20 +100,16 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
 )
 from granflow.operators import Operators
 from granflow.physics import momentum as mom
-from granflow.physics import momentum_transport as mt
 from granflow.physics.coupling import GasCoupling
 from granflow.physics.dilatancy import ap_factor
 from granflow.physics.pore_pressure import GasLaw
 from granflow.physics.transport import (
-    POSITIVITY_CFL,
     PhiScheme,
     advect,
-    cfl_number,
-    clip_to_bounds,
     flux_face_fraction,
 )
 from granflow.rheology.base import Closure
-from granflow.solvers import SaddleHints, make_linear_solver, pardiso_available
+from granflow.solvers import make_linear_solver, pardiso_available
 from granflow.state import State
 
 
@@ -430,195 +425,49 @@ class Model:
     def advance(self, state: State, dt: float) -> StepReport:
         """Advance ``state`` in place by ``dt`` [s]; on FAILED the state is left unchanged.
 
+        The stages (:mod:`granflow.step`): explicit t^n terms, the implicit Picard solve, the
+        energy terms, the phi transport; then the gas powers and the state update.
+
         Returns
         -------
         StepReport
         """
         if not (np.isfinite(dt) and dt > 0):
             raise GranflowInputError(f"Model.advance: dt must be > 0, got {dt!r}")
-        g, ops, mat = self.grid, self.ops, self.material
         tim = {"assembly": 0.0, "solve": 0.0, "transport": 0.0}
-        t0 = time.perf_counter()
-        phi = state.phi
-        dense = self.dense(phi)
-        phi_e = self.effective_packing(phi)
-        iso = (self.interface_band(phi, self.isochoric_interface).ravel()
-               if self.isochoric_interface else None)
-        rho_f = self.inertia_density(phi)  # inertia at t^n
-        consistent = self.advection is mom.Advection.CONSISTENT
-        f_g, drag = self.gravity_split(phi, state.vel, dt)
-        if consistent:  # (m^{k} u - m^n u^n)/dt + rho_s A(F_k, u^n): mass fluxes of the iterate
-            rhs_0 = rho_f * state.vel / dt + f_g
-            rho_k, flux_div, rhs_u = rho_f, None, rhs_0
-        else:
-            adv = mom.momentum_advection(ops, state.vel, self.advection)
-            rhs_u = rho_f * (state.vel / dt - adv) + f_g
-            rho_k = rho_f
-        gas_sys, border, rhs_gas = None, None, []
-        if self.gas_coupling is not None:
-            try:
-                gas_sys = self.gas_coupling.prepare(phi, state.p_f, state.vel, dt, dense)
-            except GranflowInputError as err:
-                return self._failed(dt, f"pore-pressure block: {err}", 0, tim)
-            if gas_sys.n_wet:
-                border = gas_sys.border(mat.p_atm)
-                rhs_gas = [gas_sys.scaled_rhs(mat.p_atm)]
-        p_f_new = state.p_f.ravel()
-        u_k = state.vel.copy()
-        p_k = np.maximum(state.p.ravel(), 0.0)
-        free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
-        if self.linear_solver is not None:
-            self.linear_solver.begin_step()
-        n = g.n_unknowns
-        keep = self.velocity_region(phi)  # velocity unknowns of this step (None: all)
-        region = None if keep is None else self.assembler.region(keep)
-        nv = n if region is None else region.size
-        floor = np.sqrt(n) * self.eps * g.Lz
-        changes, rel, sweeps, n_negz, krylov = 0, np.inf, 0, 0, 0
-        converged = False
-        tim["assembly"] += time.perf_counter() - t0
-        for sweeps in range(1, self.picard.max_sweeps + 1):
-            t0 = time.perf_counter()
-            if consistent:
-                rho_k, flux_div, rhs_u = self._consistent_inertia(phi, state.vel, u_k, dt, rhs_0)
-            S = ops.strain_rate_norm(u_k)
-            coef = self.coefficients(phi_e, p_k, S, dt, dense)
-            if iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
-                coef.b[iso] = 0.0
-                coef.C[iso] = 0.0
-            if coef.nonfinite:
-                return self._failed(dt, f"closure {self.closure.name!r} gave non-finite values in "
-                                        f"dense cells: {coef.nonfinite}", sweeps, tim)
-            n_negz = max(n_negz, coef.n_negative_Z)
-            eta_n = ops.cell_to_node @ coef.eta_c
-            a_data = self.assembler.velocity_data(rho_k / dt + drag, coef.eta_c, eta_n, region)
-            act = dense & ~free
-            punk = dense if self._stable_pattern else act  # pressure unknowns (saddle ``unknowns``)
-            K = self.assembler.saddle(a_data, act, coef.C, border, unknowns=punk, velocity=region)
-            rhs = np.concatenate([rhs_u if keep is None else rhs_u[keep],
-                                  -np.where(act, coef.b, 0.0)[punk]] + rhs_gas)
-            t1 = time.perf_counter()
-            tim["assembly"] += t1 - t0
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                try:
-                    if self.linear_solver is None:
-                        sol = spla.spsolve(K, rhs)
-                    else:
-                        m_unk = int(np.count_nonzero(punk))
-                        x0 = np.concatenate([u_k if keep is None else u_k[keep], np.where(act, p_k, 0.0)[punk],
-                                             np.zeros(K.shape[0] - nv - m_unk)])
-                        sol, info = self.linear_solver.solve(
-                            K, rhs, x0=x0, hints=SaddleHints(mass=rho_k / dt + drag, viscosity=coef.eta_c[act]))
-                        krylov += int(info.iterations)
-                except Exception as err:  # singular matrix, SuperLU failure, Krylov non-convergence
-                    tim["solve"] += time.perf_counter() - t1
-                    return self._failed(dt, f"linear solve failed: {err}", sweeps, tim)
-            tim["solve"] += time.perf_counter() - t1
-            if not np.all(np.isfinite(sol)):
-                return self._failed(dt, "non-finite solution of the linear system", sweeps, tim)
-            if keep is None:
-                u_new = sol[:n]
-            else:
-                u_new = np.zeros(n)
-                u_new[keep] = sol[:nv]
-            p_new = np.zeros(g.n_cells)
-            m = int(np.count_nonzero(punk))
-            p_new[punk] = sol[nv:nv + m]  # 0 in the free cells among the unknowns
-            if gas_sys is not None:
-                p_f_new = gas_sys.expand(sol[nv + m:])
-            eta_last = (coef.eta_c, eta_n)
-            div_u = ops.div @ u_new
-            to_free = act & (p_new < 0.0)
-            to_act = free & (div_u < coef.b)
-            n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
-            changes += n_change
-            free = (free & ~to_act) | to_free
-            p_raw = p_new
-            p_new = np.where(act & ~to_free, p_new, 0.0)
-            inc = float(np.linalg.norm(u_new - u_k))
-            rel = inc / (float(np.linalg.norm(u_new)) + floor)
-            u_k, p_k, p_solve = u_new, p_new, p_raw
-            if rel <= self.picard.tol and n_change == 0:
-                converged = True
-                break
-        if not converged and rel > self.picard.fail_tol:
-            return self._failed(dt, f"Picard diverged (relative increment {rel:.3g})", sweeps, tim)
-        if gas_sys is not None and np.any(p_f_new <= -mat.p_atm):
-            return self._failed(dt, "p_f below vacuum (p_f <= -p_atm)", sweeps, tim)
-        dV = g.cell_volume
-        diss_y = ops.dissipation(u_k, *eta_last)
-        diss_d = -dV * float(p_solve @ (ops.div @ u_k))  # the p of the solve (before freeing)
-        du = u_k - state.vel
-        be = 0.5 * dV * float(rho_f @ (du * du)) / dt
-        if consistent:
-            adv_pow = mt.advection_energy_rate(mat.rho_s, dV, flux_div[0], flux_div[1], u_k)
-        else:
-            adv_pow = dV * float((rho_f * adv) @ u_k)
-        grav_pow = dV * float((f_g - drag * u_k) @ u_k)
-        # --- transport -------------------------------------------------------------------------
-        t0 = time.perf_counter()
-        cfl = cfl_number(g, u_k, dt)
-        if cfl > POSITIVITY_CFL:
-            return self._failed(dt, f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps, tim)
-        moved = advect(g, phi, u_k, dt, mat.phi_max, self.phi_transport)
-        phi_new = moved.phi
-        wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
-        if not np.all(np.isfinite(phi_new)):
-            bad = np.unravel_index(int(np.argmax(~np.isfinite(phi_new))), phi_new.shape)
-            return self._failed(dt, f"non-finite phi after transport {_location(g, bad)}", sweeps, tim)
-        phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, dV)
-        tim["transport"] += time.perf_counter() - t0
-        if bounds.max_before > mat.phi_max * (1.0 + self.phi_tolerance):
-            where = _location(g, np.unravel_index(int(np.argmax(phi_new)), phi_new.shape))
-            return self._failed(dt, f"phi = {bounds.max_before:.4g} exceeds phi_max by more than "
-                                    f"{self.phi_tolerance:.2%} {where}", sweeps, tim)
-        if bounds.min_before < -mat.phi_max * self.phi_tolerance:
-            where = _location(g, np.unravel_index(int(np.argmin(phi_new)), phi_new.shape))
-            return self._failed(dt, f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance {where}", sweeps, tim)
+        sweeps = 0
+        try:
+            ex = step.explicit_stage(self, state, dt, tim)
+            im = step.implicit_stage(self, state, dt, ex, tim)
+            sweeps = im.sweeps
+            powers = step.energy_terms(self, state, dt, ex, im)
+            tr = step.transport_stage(self, state, dt, im.u, tim, sweeps)
+        except step.StepFailed as failure:
+            return self._failed(dt, failure.message, failure.sweeps or sweeps, tim)
         gas_powers = None
-        if gas_sys is not None:
+        if ex.gas_sys is not None:
             t0 = time.perf_counter()
-            gas_powers = self.gas_coupling.powers(gas_sys, p_f_new, u_k, phi_clip)
+            gas_powers = self.gas_coupling.powers(ex.gas_sys, im.p_f, im.u, tr.phi)
             tim["assembly"] += time.perf_counter() - t0
-            state.p_f = p_f_new.reshape(g.cell_shape)
-        state.phi = phi_clip
-        state.vel = u_k
-        state.p = p_k.reshape(g.cell_shape)
+            state.p_f = im.p_f.reshape(self.grid.cell_shape)
+        state.phi = tr.phi
+        state.vel = im.u
+        state.p = im.p.reshape(self.grid.cell_shape)
         state.t += dt
         state.step += 1
+        b = tr.bounds
         return StepReport(
-            status=StepStatus.OK if converged else StepStatus.NOT_CONVERGED, dt=dt,
-            picard_iterations=sweeps, picard_increment=rel, active_set_changes=changes,
-            n_dense=int(np.count_nonzero(dense)), n_free=int(np.count_nonzero(free)),
-            n_negative_Z=n_negz, cfl=cfl, clipped_mass=bounds.clipped_mass,
-            added_mass=bounds.added_mass, max_phi_before_clip=bounds.max_before,
-            min_phi_before_clip=bounds.min_before, dissipation_yield=diss_y,
-            dissipation_dilatancy=diss_d, inertia_dissipation=be, advection_power=adv_pow,
-            gravity_power=grav_pow, timings=tim, gas=gas_powers, wrapped_mass=wrapped,
-            linear_iterations=krylov, limited_mass=moved.held_back,
-            solve_density=rho_k if consistent else None)
-
-    def _consistent_inertia(self, phi, vel_n, u_k, dt: float, rhs_0):
-        """Inertia and right-hand side of the consistent momentum transport for the iterate
-        ``u_k`` (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with
-        ``u_k`` gives the solid fluxes ``F_k``; the solve uses ``m_k = rho_s phi_f(T(phi, u_k)) +
-        rho_a`` (the dual-cell mass after the step) and ``rhs_0 - rho_s A(F_k, u^n)``. At Picard
-        convergence ``F_k`` is the flux of the step's own transport, so mass and momentum move
-        together. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
-        rho_s = self.material.rho_s
-        moved = advect(self.grid, phi, u_k, dt, self.material.phi_max, self.phi_transport)
-        A = mt.momentum_flux_divergence(self.grid, moved.flux_x, moved.flux_z, vel_n)
-        div_dual = mt.dual_mass_divergence(self.ops, moved.flux_x, moved.flux_z)
-        return self.inertia_density(moved.phi), (A, div_dual), rhs_0 - rho_s * A
+            status=StepStatus.OK if im.converged else StepStatus.NOT_CONVERGED, dt=dt,
+            picard_iterations=im.sweeps, picard_increment=im.rel, active_set_changes=im.changes,
+            n_dense=int(np.count_nonzero(ex.dense)), n_free=int(np.count_nonzero(im.free)),
+            n_negative_Z=im.n_negative_Z, cfl=tr.cfl, clipped_mass=b.clipped_mass,
+            added_mass=b.added_mass, max_phi_before_clip=b.max_before, min_phi_before_clip=b.min_before,
+            timings=tim, gas=gas_powers, wrapped_mass=tr.wrapped, linear_iterations=im.krylov,
+            limited_mass=tr.held_back, solve_density=im.rho_k if im.flux_div is not None else None,
+            **powers)
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:
         return StepReport(status=StepStatus.FAILED, dt=dt, message=message,
                           picard_iterations=sweeps, timings=timings)
 
-
-def _location(grid, index) -> str:
-    """'at cell (i, j), x = .. m, z = .. m' for a cell index of ``grid`` (failure messages)."""
-    i, j = (int(k) for k in index)
-    return f"at cell ({i}, {j}), x = {grid.xc[i]:.4g} m, z = {grid.zc[j]:.4g} m"

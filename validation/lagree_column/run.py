@@ -54,6 +54,11 @@ from granflow.config import CaseConfig
 from granflow.verification.convergence import richardson  # noqa: F401  (dry_runout, fluidised_vs_dry use LAG.richardson)
 
 HERE = Path(__file__).resolve().parent
+PRE_V2_SETUP = {"d": 1.0 / 40.0}
+PRE_V2_AMBIENT = {"rho_a": 1.0e-2, "eta_a": 1.0e-3}
+"""The case as this study ran it (before scheme v2 the case's defaults were d = 1/40 and this
+ambient; they are now Basilisk's, validation/basilisk_column): pinned so that results.json stays
+reproducible."""
 ROOT = HERE.parents[1]
 RESULTS = HERE / "results.json"
 DATA = HERE / "data"
@@ -115,8 +120,8 @@ def case_config(a: float, model: str, n: int, box: str = "reduced", stop_time: f
     if max_steps is not None:
         time_s["max_steps"] = max_steps
     return CaseConfig.from_dict({
-        "case": {"name": CASE}, "setup": {"a": a, "model": model, "Lx": PAPER_BOX, "Lz": lz},
-        "grid": {"nx": n, "nz": nz}, "time": time_s,
+        "case": {"name": CASE}, "setup": {"a": a, "model": model, "Lx": PAPER_BOX, "Lz": lz, **PRE_V2_SETUP},
+        "grid": {"nx": n, "nz": nz}, "time": time_s, "numerics": {"ambient": dict(PRE_V2_AMBIENT)},
         "output": {"interval": OUTPUT_INTERVAL, "front_threshold": THRESHOLDS[0],
                    "rest_speed": REST_SPEED, "figures": False,
                    "fields": ["phi", "u", "w", "p", "S"]}})

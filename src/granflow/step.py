@@ -1,0 +1,320 @@
+"""The named stages of one time step of :class:`granflow.model.Model` (paper eqs syst1b-syst4b;
+the scheme is described in the module docstring of :mod:`granflow.model`):
+
+1. :func:`explicit_stage` -- t^n quantities: masks, inertia, gravity, the v1 momentum advection,
+   the gas rows, the velocity band and the layout of the unknowns (:class:`SaddleLayout`);
+2. :func:`implicit_stage` -- the Picard loop on the monolithic (u, p[, p_f]) saddle system,
+   with the consistent momentum transport (:func:`consistent_inertia`) recomputed per sweep;
+3. :func:`energy_terms` -- the step's powers for the energy budget
+   (:class:`granflow.diagnostics.EnergyBudget`);
+4. :func:`transport_stage` -- the phi transport with u^{n+1}, its bounds and CFL checks.
+
+A stage that cannot go on raises :class:`StepFailed`; :meth:`Model.advance` turns it into a FAILED
+report and leaves the state untouched. The stages read the model's attributes and know nothing
+of cases, output or the CLI.
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from granflow.errors import GranflowInputError
+from granflow.physics import momentum as mom
+from granflow.physics import momentum_transport as mt
+from granflow.physics.transport import POSITIVITY_CFL, advect, cfl_number, clip_to_bounds
+from granflow.solvers import SaddleHints
+
+
+class StepFailed(Exception):
+    """A stage could not complete: ``message`` names the quantity, ``sweeps`` the Picard sweeps
+    done."""
+
+    def __init__(self, message: str, sweeps: int = 0) -> None:
+        super().__init__(message)
+        self.message, self.sweeps = message, sweeps
+
+
+@dataclass(frozen=True)
+class SaddleLayout:
+    """Where the unknowns of one saddle solve sit in its vector ``[u_kept, p_unknowns, p_f_wet]``.
+
+    ``keep`` (mask of the velocity unknowns solved; None: all ``n_velocity`` of them, the others
+    are u = 0, the velocity band) and ``pressure`` (mask (n_cells,) of the cells whose p is an
+    unknown; the free cells among them are pinned to 0)."""
+
+    n_velocity: int
+    n_cells: int
+    keep: np.ndarray | None
+    pressure: np.ndarray
+
+    @property
+    def n_kept(self) -> int:
+        return self.n_velocity if self.keep is None else int(np.count_nonzero(self.keep))
+
+    @property
+    def n_pressure(self) -> int:
+        return int(np.count_nonzero(self.pressure))
+
+    def kept(self, v: np.ndarray) -> np.ndarray:
+        """The solved velocity entries of a full velocity vector ``v``."""
+        return v if self.keep is None else v[self.keep]
+
+    def velocity(self, sol: np.ndarray) -> np.ndarray:
+        """Full velocity vector (zero beyond the band) from a solution."""
+        if self.keep is None:
+            return sol[:self.n_velocity].copy()
+        u = np.zeros(self.n_velocity)
+        u[self.keep] = sol[:self.n_kept]
+        return u
+
+    def pressure_of(self, sol: np.ndarray) -> np.ndarray:
+        """p on every cell (zero where not an unknown) from a solution [Pa]."""
+        p = np.zeros(self.n_cells)
+        p[self.pressure] = sol[self.n_kept:self.n_kept + self.n_pressure]
+        return p
+
+    def gas(self, sol: np.ndarray) -> np.ndarray:
+        """The gas entries (wet cells) of a solution."""
+        return sol[self.n_kept + self.n_pressure:]
+
+    def guess(self, u: np.ndarray, p: np.ndarray, size: int) -> np.ndarray:
+        """Initial guess ``[u_kept, p_unknowns, 0...]`` of length ``size``."""
+        head = [self.kept(u), p[self.pressure]]
+        return np.concatenate(head + [np.zeros(size - self.n_kept - self.n_pressure)])
+
+
+@dataclass
+class Explicit:
+    """t^n quantities of a step (:func:`explicit_stage`)."""
+
+    dense: np.ndarray
+    phi_e: np.ndarray
+    iso: np.ndarray | None
+    rho_n: np.ndarray
+    """Face inertia at t^n [kg m^-3]."""
+    f_g: np.ndarray
+    drag: np.ndarray
+    rhs_u: np.ndarray
+    """Momentum right-hand side (consistent transport: without the flux term, added per sweep)."""
+    adv: np.ndarray | None
+    """v1 ``(u . grad) u`` (None with the consistent transport)."""
+    gas_sys: object | None
+    border: object | None
+    rhs_gas: list
+    keep: np.ndarray | None
+    region: object | None
+
+
+@dataclass
+class Implicit:
+    """Outcome of the Picard loop (:func:`implicit_stage`)."""
+
+    u: np.ndarray
+    p: np.ndarray
+    p_solve: np.ndarray
+    """p of the last solve, before freeing (the dilatancy work uses it)."""
+    p_f: np.ndarray
+    free: np.ndarray
+    eta: tuple
+    rho_k: np.ndarray
+    """Face inertia of the last solve [kg m^-3]."""
+    flux_div: tuple | None
+    """``(A, div_dual F)`` of the consistent transport's last sweep (None for v1)."""
+    sweeps: int
+    rel: float
+    converged: bool
+    changes: int
+    n_negative_Z: int
+    krylov: int
+
+
+def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
+    """Stage 1: masks, packing of the closure, inertia, gravity, the v1 advection, gas rows."""
+    t0 = time.perf_counter()
+    phi = state.phi
+    dense = model.dense(phi)
+    iso = (model.interface_band(phi, model.isochoric_interface).ravel()
+           if model.isochoric_interface else None)
+    rho_n = model.inertia_density(phi)
+    f_g, drag = model.gravity_split(phi, state.vel, dt)
+    adv = None
+    if model.advection is mom.Advection.CONSISTENT:
+        rhs_u = rho_n * state.vel / dt + f_g
+    else:
+        adv = mom.momentum_advection(model.ops, state.vel, model.advection)
+        rhs_u = rho_n * (state.vel / dt - adv) + f_g
+    gas_sys, border, rhs_gas = None, None, []
+    if model.gas_coupling is not None:
+        try:
+            gas_sys = model.gas_coupling.prepare(phi, state.p_f, state.vel, dt, dense)
+        except GranflowInputError as err:
+            raise StepFailed(f"pore-pressure block: {err}") from None
+        if gas_sys.n_wet:
+            border = gas_sys.border(model.material.p_atm)
+            rhs_gas = [gas_sys.scaled_rhs(model.material.p_atm)]
+    keep = model.velocity_region(phi)
+    region = None if keep is None else model.assembler.region(keep)
+    tim["assembly"] += time.perf_counter() - t0
+    return Explicit(dense=dense, phi_e=model.effective_packing(phi), iso=iso, rho_n=rho_n, f_g=f_g,
+                    drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
+                    rhs_gas=rhs_gas, keep=keep, region=region)
+
+
+def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0):
+    """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
+    (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
+    the solid fluxes ``F_k``; the solve uses ``m_k = rho_s phi_f(T(phi, u_k)) + rho_a`` (the
+    dual-cell mass after the step) and ``rhs_0 - rho_s A(F_k, u^n)``. At Picard convergence
+    ``F_k`` is the flux of the step's own transport, so mass and momentum move together.
+    Returns ``(m_k, (A, div_dual F_k), rhs)``."""
+    moved = advect(model.grid, phi, u_k, dt, model.material.phi_max, model.phi_transport)
+    A = mt.momentum_flux_divergence(model.grid, moved.flux_x, moved.flux_z, vel_n)
+    div_dual = mt.dual_mass_divergence(model.ops, moved.flux_x, moved.flux_z)
+    return model.inertia_density(moved.phi), (A, div_dual), rhs_0 - model.material.rho_s * A
+
+
+def _solve(model, K, rhs, x0, hints, tim: dict, sweeps: int):
+    t1 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:
+            if model.linear_solver is None:
+                sol, its = spla.spsolve(K, rhs), 0
+            else:
+                sol, info = model.linear_solver.solve(K, rhs, x0=x0(), hints=hints)
+                its = int(info.iterations)
+        except Exception as err:  # singular matrix, SuperLU failure, Krylov non-convergence
+            raise StepFailed(f"linear solve failed: {err}", sweeps) from None
+        finally:
+            tim["solve"] += time.perf_counter() - t1
+    if not np.all(np.isfinite(sol)):
+        raise StepFailed("non-finite solution of the linear system", sweeps)
+    return sol, its
+
+
+def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
+    """Stage 2: the Picard loop (module docstring of :mod:`granflow.model`, step 2)."""
+    g, ops = model.grid, model.ops
+    consistent = model.advection is mom.Advection.CONSISTENT
+    dense = ex.dense
+    u_k = state.vel.copy()
+    p_k = np.maximum(state.p.ravel(), 0.0)
+    p_f_new = state.p_f.ravel()
+    free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
+    if model.linear_solver is not None:
+        model.linear_solver.begin_step()
+    floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
+    changes, rel, n_negz, krylov, converged, sweeps = 0, np.inf, 0, 0, False, 0
+    rho_k, flux_div, rhs_u = ex.rho_n, None, ex.rhs_u
+    for sweeps in range(1, model.picard.max_sweeps + 1):
+        t0 = time.perf_counter()
+        if consistent:
+            rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u)
+        coef = model.coefficients(ex.phi_e, p_k, ops.strain_rate_norm(u_k), dt, dense)
+        if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
+            coef.b[ex.iso] = 0.0
+            coef.C[ex.iso] = 0.0
+        if coef.nonfinite:
+            raise StepFailed(f"closure {model.closure.name!r} gave non-finite values in dense cells: "
+                             f"{coef.nonfinite}", sweeps)
+        n_negz = max(n_negz, coef.n_negative_Z)
+        eta_n = ops.cell_to_node @ coef.eta_c
+        mass = rho_k / dt + ex.drag
+        a_data = model.assembler.velocity_data(mass, coef.eta_c, eta_n, ex.region)
+        act = dense & ~free
+        layout = SaddleLayout(g.n_unknowns, g.n_cells, ex.keep,
+                              dense if model._stable_pattern else act)
+        K = model.assembler.saddle(a_data, act, coef.C, ex.border, unknowns=layout.pressure,
+                                   velocity=ex.region)
+        rhs = np.concatenate([layout.kept(rhs_u), -np.where(act, coef.b, 0.0)[layout.pressure]] + ex.rhs_gas)
+        tim["assembly"] += time.perf_counter() - t0
+        sol, its = _solve(model, K, rhs, lambda: layout.guess(u_k, np.where(act, p_k, 0.0), K.shape[0]),
+                          SaddleHints(mass=mass, viscosity=coef.eta_c[act]), tim, sweeps)
+        krylov += its
+        u_new = layout.velocity(sol)
+        p_new = layout.pressure_of(sol)  # 0 in the free cells among the unknowns
+        if ex.gas_sys is not None:
+            p_f_new = ex.gas_sys.expand(layout.gas(sol))
+        eta_last = (coef.eta_c, eta_n)
+        to_free = act & (p_new < 0.0)
+        to_act = free & (ops.div @ u_new < coef.b)
+        n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
+        changes += n_change
+        free = (free & ~to_act) | to_free
+        p_raw = p_new
+        p_new = np.where(act & ~to_free, p_new, 0.0)
+        rel = float(np.linalg.norm(u_new - u_k)) / (float(np.linalg.norm(u_new)) + floor)
+        u_k, p_k, p_solve = u_new, p_new, p_raw
+        if rel <= model.picard.tol and n_change == 0:
+            converged = True
+            break
+    if not converged and rel > model.picard.fail_tol:
+        raise StepFailed(f"Picard diverged (relative increment {rel:.3g})", sweeps)
+    if ex.gas_sys is not None and np.any(p_f_new <= -model.material.p_atm):
+        raise StepFailed("p_f below vacuum (p_f <= -p_atm)", sweeps)
+    return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
+                    rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
+                    changes=changes, n_negative_Z=n_negz, krylov=krylov)
+
+
+def energy_terms(model, state, dt: float, ex: Explicit, im: Implicit) -> dict:
+    """Stage 3: the step's powers [W m^-1] (:class:`granflow.model_options.StepReport`)."""
+    ops, dV = model.ops, model.grid.cell_volume
+    du = im.u - state.vel
+    if im.flux_div is not None:
+        adv_pow = mt.advection_energy_rate(model.material.rho_s, dV, im.flux_div[0], im.flux_div[1], im.u)
+    else:
+        adv_pow = dV * float((ex.rho_n * ex.adv) @ im.u)
+    return dict(dissipation_yield=ops.dissipation(im.u, *im.eta),
+                dissipation_dilatancy=-dV * float(im.p_solve @ (ops.div @ im.u)),
+                inertia_dissipation=0.5 * dV * float(ex.rho_n @ (du * du)) / dt,
+                advection_power=adv_pow,
+                gravity_power=dV * float((ex.f_g - ex.drag * im.u) @ im.u))
+
+
+@dataclass
+class Transported:
+    """Outcome of :func:`transport_stage`."""
+
+    phi: np.ndarray
+    """Clipped phi^{n+1}."""
+    bounds: object
+    cfl: float
+    wrapped: float
+    held_back: float
+
+
+def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int) -> Transported:
+    """Stage 4: phi transport with ``u^{n+1}``; CFL, finiteness and bound checks (module
+    docstring of :mod:`granflow.model`, step 3)."""
+    g, mat = model.grid, model.material
+    t0 = time.perf_counter()
+    cfl = cfl_number(g, u_new, dt)
+    if cfl > POSITIVITY_CFL:
+        raise StepFailed(f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps)
+    moved = advect(g, state.phi, u_new, dt, mat.phi_max, model.phi_transport)
+    phi_new = moved.phi
+    wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
+    if not np.all(np.isfinite(phi_new)):
+        bad = np.unravel_index(int(np.argmax(~np.isfinite(phi_new))), phi_new.shape)
+        raise StepFailed(f"non-finite phi after transport {location(g, bad)}", sweeps)
+    phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, g.cell_volume)
+    tim["transport"] += time.perf_counter() - t0
+    if bounds.max_before > mat.phi_max * (1.0 + model.phi_tolerance):
+        where = location(g, np.unravel_index(int(np.argmax(phi_new)), phi_new.shape))
+        raise StepFailed(f"phi = {bounds.max_before:.4g} exceeds phi_max by more than "
+                         f"{model.phi_tolerance:.2%} {where}", sweeps)
+    if bounds.min_before < -mat.phi_max * model.phi_tolerance:
+        where = location(g, np.unravel_index(int(np.argmin(phi_new)), phi_new.shape))
+        raise StepFailed(f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance {where}", sweeps)
+    return Transported(phi=phi_clip, bounds=bounds, cfl=cfl, wrapped=wrapped, held_back=moved.held_back)
+
+
+def location(grid, index) -> str:
+    """'at cell (i, j), x = .. m, z = .. m' for a cell index of ``grid`` (failure messages)."""
+    i, j = (int(k) for k in index)
+    return f"at cell ({i}, {j}), x = {grid.xc[i]:.4g} m, z = {grid.zc[j]:.4g} m"

@@ -1,0 +1,194 @@
+"""granflow against Basilisk on the same column collapse (issue 12, acceptance 1).
+
+Case ``lagree_column`` (docs/cases.md) with its default parameters, which reproduce Basilisk's
+public ``granular_column.c`` (Lagree, Staron & Popinet 2011, J. Fluid Mech. 686, 378-408;
+sandbox/M1EMN/Exemples in Basilisk's source): incompressible mu(I) (mu_s = 0.32, Delta mu = 0.28,
+I0 = 0.4), half column of aspect ratio a against a symmetry wall in a 5 x 5 box, no-slip base,
+dt_max = 0.01, to t = 4, the grain size mapped to granflow's inertial number
+(``d = sqrt(phi_max) D``, D = 1/30 at a = 0.5 and 1/65 at a = 1.42, 6.26), with scheme v2's
+momentum transport (:data:`NUMERICS`). Grids n x n on the whole 5 x 5 box, as Basilisk's
+``N = 1 << LEVEL``.
+
+The same deposit rule on both codes: h(x) = sum_z phi dz / phi_max per column (Basilisk: the VOF
+fraction), front = right edge of the last column with h > 0.05 H0 (``output.front_threshold``).
+
+Reference values (:data:`BASILISK`): Basilisk's granular_column.c run by the project on its
+2-core development machine (issue 12 of the tracker quotes them: fronts at t = 1, 2, 3, 4 at
+128^2 and 256^2, h(x) at t = 4 at 128^2 for a = 0.5, h(0) at t = 4). Contact-dynamics final fronts
+(:data:`CONTACT_DYNAMICS`) are those of the discrete simulations Lagree et al. (2011) compare with,
+as plotted by granular_column.c's gnuplot scripts.
+
+Acceptance (issue 12): fronts at t = 1..4 within 5 % of Basilisk at the same resolution, h(x)
+within 0.03 H0, and the converged t = 4 front (three levels 64, 128, 256; Richardson,
+:func:`granflow.verification.convergence.richardson`) stated against the contact-dynamics band.
+
+Run:   python validation/basilisk_column/run.py                 # a = 0.5, 1.42, 6.26 at 64, 128, 256
+       python validation/basilisk_column/run.py --levels 64,128 --aspects 0.5
+       python validation/basilisk_column/run.py --report        # tables from results.json only
+       python validation/basilisk_column/run.py --quick         # a = 1.42 at 16^2 to t = 0.2 (smoke)
+Time:  64^2 ~10-20 s, 128^2 ~40-60 s, 256^2 ~2-4 min per run (one core; results.json keeps every
+       run, rerun with --force).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+from granflow.cases import CASES
+from granflow.config import CaseConfig
+from granflow.verification.convergence import richardson
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results.json"
+CASE = "lagree_column"
+TIMES = (1.0, 2.0, 3.0, 4.0)
+LEVELS = (64, 128, 256)
+ASPECTS = (0.5, 1.42, 6.26)
+FRONT_THRESHOLD = 0.05
+"""Deposit thickness defining the front on both codes [H0]."""
+FRONT_TOL = 0.05
+"""Acceptance: |granflow - Basilisk| / Basilisk for the fronts at the same resolution."""
+PROFILE_TOL = 0.03
+"""Acceptance: |h_granflow - h_Basilisk| [H0]."""
+BASILISK = {
+    0.5: {128: {"fronts": (2.393, 3.165, 3.635, 3.862),
+                "h": (1.000, 0.953, 0.805, 0.633, 0.465, 0.321, 0.207, 0.087)},
+          256: {"fronts": (2.424, 3.246, 3.821, 4.125)}},
+    1.42: {128: {"fronts": (None, None, None, 2.656), "h0": 0.560},
+           256: {"fronts": (None, None, None, 3.027), "h0": 0.560}},
+    6.26: {128: {"fronts": (0.527, 1.187, 1.615, 1.804), "h0": 0.218},
+           256: {"fronts": (0.543, 1.264, 1.801, 1.966)}},
+}
+"""Basilisk granular_column.c: fronts at t = 1, 2, 3, 4 (None: not recorded) and the deposit at
+t = 4 (h at x = 0, 0.5, ..., 3.5, or only h(0)) [H0]."""
+NUMERICS = {"advection": "consistent"}
+"""Scheme v2's mass-consistent momentum transport (docs/solver.md "Scheme v2"); every other
+numerical option at the case's default."""
+CONTACT_DYNAMICS = {0.5: (3.9, 4.0), 1.42: (3.1, 3.3), 6.26: (2.16, 2.25)}
+"""Final fronts of the contact-dynamics simulations (Lagree et al. 2011) [H0]."""
+
+
+def config(a: float, n: int, stop_time: float = TIMES[-1]) -> CaseConfig:
+    return CaseConfig.from_dict({
+        "case": {"name": CASE}, "setup": {"a": a}, "grid": {"nx": n, "nz": n},
+        "walls": {"west": "free_slip", "bottom": "no_slip"},
+        "time": {"stop_time": stop_time, "dt_max": 0.01},
+        "numerics": dict(NUMERICS),
+        "output": {"front_threshold": FRONT_THRESHOLD, "figures": False}})
+
+
+def run_one(a: float, n: int, stop_time: float = TIMES[-1]) -> dict:
+    """One granflow run: fronts at :data:`TIMES`, the t = 4 deposit, energy residual, cost."""
+    cfg = config(a, n, stop_time)
+    case = CASES.get(CASE)
+    sim = case.setup(cfg)
+    t0, c0 = time.perf_counter(), time.process_time()
+    sim.run()
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    diag = case.diagnostics(sim, cfg)
+    b = sim.budget
+    return {"a": a, "n": n, "t_end": float(sim.state.t), "steps": int(sim.state.step),
+            "fronts": [diag["front_at"].get(f"{t:g}") for t in TIMES],
+            "profile_x": diag["final_profile"]["x"], "profile_h": diag["final_profile"]["h"],
+            "h0": diag["final_height_at_wall"], "d": diag["d"],
+            "energy_residual_rel": b.residual / b.released if b.released > 0 else None,
+            "picard_not_converged": int(sim.totals.not_converged), "wall_s": wall, "cpu_s": cpu,
+            "advection": sim.model.advection.value}
+
+
+def compare(run: dict) -> dict:
+    """Relative front differences and profile differences against Basilisk at the same n."""
+    ref = BASILISK.get(run["a"], {}).get(run["n"])
+    if ref is None:
+        return {}
+    rel = [None if (b is None or g is None) else (g - b) / b for g, b in zip(run["fronts"], ref["fronts"])]
+    out = {"front_rel": rel}
+    if "h" in ref:
+        out["profile_diff"] = [g - b for g, b in zip(run["profile_h"], ref["h"])]
+    if "h0" in ref:
+        out["h0_diff"] = run["h0"] - ref["h0"]
+    return out
+
+
+def analyse(results: dict) -> dict:
+    """Per a: comparisons per level and the Richardson estimate of the t = 4 front."""
+    out = {}
+    for a in sorted({r["a"] for r in results.values()}):
+        runs = sorted((r for r in results.values() if r["a"] == a), key=lambda r: r["n"])
+        finals = [r["fronts"][-1] for r in runs if r["fronts"][-1] is not None]
+        levels = [r["n"] for r in runs if r["fronts"][-1] is not None]
+        ok = len(levels) >= 2 and all(b == 2 * c for c, b in zip(levels, levels[1:]))
+        out[f"{a:g}"] = {"levels": levels, "compare": {str(r["n"]): compare(r) for r in runs},
+                         "front4_extrapolated": richardson(finals) if ok else None,
+                         "contact_dynamics": CONTACT_DYNAMICS.get(a)}
+    return out
+
+
+def _fmt(x, spec=".3f"):
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def report(results: dict) -> str:
+    lines = ["| a | n | granflow front t = 1, 2, 3, 4 | Basilisk (same n) | worst | h(0) granflow / Basilisk "
+             "| energy residual | CPU s |", "|---|---:|---|---|---:|---|---:|---:|"]
+    ana = analyse(results)
+    for r in sorted(results.values(), key=lambda r: (r["a"], r["n"])):
+        ref = BASILISK.get(r["a"], {}).get(r["n"], {})
+        cmp_ = compare(r)
+        worst = max((abs(v) for v in cmp_.get("front_rel", []) if v is not None), default=None)
+        h0b = ref.get("h0", ref.get("h", (None,))[0]) if ref else None
+        lines.append(f"| {r['a']:g} | {r['n']} | {', '.join(_fmt(f) for f in r['fronts'])} | "
+                     f"{', '.join(_fmt(f) for f in ref.get('fronts', ())) or '–'} | "
+                     f"{_fmt(None if worst is None else 100 * worst, '.1f')} % | {_fmt(r['h0'])} / {_fmt(h0b)} | "
+                     f"{_fmt(100 * r['energy_residual_rel'] if r['energy_residual_rel'] is not None else None, '+.1f')} % | "
+                     f"{r['cpu_s']:.0f} |")
+    lines += ["", "| a | t = 4 front, Richardson (levels) | contact dynamics (final) |", "|---|---|---|"]
+    for a, v in ana.items():
+        est = v["front4_extrapolated"]
+        txt = "–" if est is None else f"{est['value']:.3f} ± {est['uncertainty']:.3f} ({est['method']}, {v['levels']})"
+        cd = v["contact_dynamics"]
+        lines.append(f"| {a} | {txt} | {cd[0]}–{cd[1]} |" if cd else f"| {a} | {txt} | – |")
+    for a, v in ana.items():
+        for n, c in v["compare"].items():
+            if "profile_diff" in c:
+                lines.append(f"\nh(x) - h_Basilisk at t = 4, a = {a}, n = {n} (x = 0, 0.5, ..., 3.5): "
+                             + ", ".join(f"{d:+.3f}" for d in c["profile_diff"])
+                             + f"; largest {max(abs(d) for d in c['profile_diff']):.3f} H0")
+    return "\n".join(lines)
+
+
+def load_results(path: Path = RESULTS) -> dict:
+    return json.loads(path.read_text())["runs"] if path.exists() else {}
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--levels", default=",".join(map(str, LEVELS)))
+    ap.add_argument("--aspects", default=",".join(f"{a:g}" for a in ASPECTS))
+    ap.add_argument("--force", action="store_true", help="redo runs already in results.json")
+    ap.add_argument("--report", action="store_true", help="only print the tables")
+    ap.add_argument("--quick", action="store_true", help="a = 1.42 at 16^2 to t = 0.2, nothing saved")
+    args = ap.parse_args(argv)
+    if args.quick:
+        r = run_one(1.42, 16, stop_time=0.2)
+        print(f"quick: a = 1.42, 16^2, t = {r['t_end']:.2f}: {r['steps']} steps, h(0) = {r['h0']:.3f}")
+        return {"quick": r}
+    results = load_results()
+    if not args.report:
+        for a in (float(s) for s in args.aspects.split(",") if s):
+            for n in (int(s) for s in args.levels.split(",") if s):
+                key = f"{a:g}:{n}"
+                if key in results and not args.force:
+                    continue
+                results[key] = run_one(a, n)
+                RESULTS.write_text(json.dumps({"runs": results, "analysis": analyse(results)}, indent=1))
+                print(f"{key}: fronts {results[key]['fronts']}, {results[key]['cpu_s']:.0f} s CPU", flush=True)
+    print(report(results))
+    return results
+
+
+if __name__ == "__main__":
+    main()
