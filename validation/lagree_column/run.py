@@ -21,7 +21,7 @@ for a front only if the creeping one-cell tongue, h = (phi_c/phi_max) dz, is thi
 smallest h the front reads (README). L_inf is the front at the end of the run, which stops once the
 rms granular speed has stayed below 0.01 sqrt(g H0) (``output.rest_speed``) for one time unit
 (``time.stop_at_rest``) or at t = 8. Normalised run-out (L_inf - L0)/L0, L0 = 1/a.
-Published planar scalings (MODEL.md §7): lambda1 a for a <~ 3 (lambda1 = 1.2-2.2), lambda2 a^(2/3)
+Published planar scalings (docs/model.md §7): lambda1 a for a <~ 3 (lambda1 = 1.2-2.2), lambda2 a^(2/3)
 above (lambda2 = 1.9-3.9); Lube et al. 2005, Lajeunesse et al. 2005; Balmforth & Kerswell 2005
 exponent 0.9 +- 0.1.
 
