@@ -106,6 +106,10 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
         assert ds.attrs["front_threshold_m"] == thr
         fronts = [front_from_phi(ds["phi"][i].values, edges, 0.025, thr) for i in range(ds.sizes["time"])]
         assert s["front_position"]["x_m"] == pytest.approx(fronts, abs=1e-12)
+        # one definition: the accessor, the x_front series and the summary give the same fronts
+        assert ds.granflow.front_position().values.tolist() == pytest.approx(fronts, abs=1e-12)
+        assert ds["x_front"].values.tolist() == pytest.approx(fronts, abs=1e-12)
+        assert s["front_position"]["resolution_m"] == pytest.approx(0.4 / 16, rel=1e-12)
         assert s["runout_m"] == pytest.approx(fronts[-1] - fronts[0], abs=1e-12)
         assert float(ds.granflow.runout(threshold=thr)) == pytest.approx(s["runout_m"], abs=1e-12)
         assert float(ds.granflow.runout()) == pytest.approx(s["runout_m"], abs=1e-12)  # the run's threshold

@@ -136,8 +136,9 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
             speed = np.hypot(snap["u"].values, snap["w"].values).T
             if speed.max() > 0:
                 ax.contour(x, z, speed, levels=4, colors="k", linewidths=0.5)
+        draw_front(ax, ds, i)
         ax.set_aspect("equal")
-        ax.set_title(f"phi, t = {float(snap['time']):.3g} s (contours: speed)", fontsize="small")
+        ax.set_title(f"phi, t = {float(snap['time']):.3g} s (contours: speed; dashed: front)", fontsize="small")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("z [m]")
         fig.colorbar(m, ax=ax, shrink=0.8)
@@ -282,6 +283,33 @@ def _surface(ax, ds, index: int, phi_c: float):
                       linewidths=1.0)
 
 
+FRONT_GID = "front"
+"""``gid`` of the front marker drawn on snapshots (the ``x_front`` of the run)."""
+
+
+def front_at(ds, index: int) -> float:
+    """The front of record ``index`` [m]: the run's ``x_front`` if written, else
+    ``ds.granflow.front_position()`` -- the same definition (docs/cases.md, "Front position")."""
+    if "x_front" in ds:
+        return float(ds["x_front"].values[index])
+    try:
+        import granflow.output  # noqa: F401 - registers the accessor
+
+        return float(ds.granflow.front_position().values[index])
+    except Exception:  # noqa: BLE001 - no phi or no phi_max: no front to show
+        return float("nan")
+
+
+def draw_front(ax, ds, index: int):
+    """Mark the front x_f of record ``index`` with a dashed vertical line (gid ``front``); None if
+    there is no front."""
+    x_f = front_at(ds, index)
+    if not np.isfinite(x_f):
+        return None
+    return ax.axvline(x_f, color="tab:blue", ls="--", lw=1.0, gid=FRONT_GID,
+                      label=f"front x_f = {x_f:.4g}")
+
+
 def _figure(ds):
     plt = _pyplot()
     x, z = ds["x"].values, ds["z"].values
@@ -319,12 +347,13 @@ def snapshot_axes(ax, ds, var: str, index: int, limits: tuple[float, float] | No
     mesh = ax.pcolormesh(x, z, np.asarray(field.values[index], dtype=float).T, vmin=vmin, vmax=vmax,
                          cmap=_cmap(var), shading="nearest")
     contour = _surface(ax, ds, index, free_surface_level(ds))
+    draw_front(ax, ds, index)
     bar = ax.figure.colorbar(mesh, ax=ax, location="bottom", shrink=0.9, aspect=40)
     bar.set_label(field_label(field))
     ax.set_aspect("equal")
     ax.set_xlabel(f"x [{ds['x'].attrs.get('units', 'm')}]")
     ax.set_ylabel(f"z [{ds['z'].attrs.get('units', 'm')}]")
-    ax.set_title(_title(ds, var, index) + f"; line: phi = {free_surface_level(ds):g}",
+    ax.set_title(_title(ds, var, index) + f"; line: phi = {free_surface_level(ds):g}, dashed: front",
                  fontsize="small")
     return mesh, contour, bar
 
@@ -357,7 +386,10 @@ def animate_run(ds, var: str, path: str | Path, fps: int = GIF_FPS) -> Path:
         if state["contour"] is not None:
             state["contour"].remove()
         state["contour"] = _surface(ax, ds, i, phi_c)
-        ax.set_title(_title(ds, var, i) + f"; line: phi = {phi_c:g}", fontsize="small")
+        for line in [ln for ln in ax.lines if ln.get_gid() == FRONT_GID]:
+            line.remove()
+        draw_front(ax, ds, i)
+        ax.set_title(_title(ds, var, i) + f"; line: phi = {phi_c:g}, dashed: front", fontsize="small")
         return (mesh,)
 
     anim = FuncAnimation(fig, update, frames=ds.sizes["time"], blit=False, repeat=False)

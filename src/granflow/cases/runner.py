@@ -74,8 +74,7 @@ PROBE_SPECS = {
 """Time series at the basal probes (``output.probes_x``)."""
 SERIES_SPECS = {
     "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
-    "x_front": ("m", ("front position: right edge of the furthest column with deposit thickness "
-                      "above the threshold")),
+    "x_front": ("m", f"front position: {dg.FRONT_DEFINITION} (attribute front_threshold_m; resolution dx)"),
 }
 UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
@@ -424,7 +423,10 @@ class CaseRun:
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
             "runout_m": x_final - x_first,
             "front_position": {"threshold_m": self.threshold, "t_s": list(self.front_t),
-                               "x_m": list(self.front_x), "final_m": x_final},
+                               "x_m": list(self.front_x), "final_m": x_final,
+                               "definition": dg.FRONT_DEFINITION,
+                               # fronts are quantised by the column width (diagnostics.front_from_thickness)
+                               "resolution_m": g.dx},
             "final_height_at_wall": float(h[0]),
             "t_rest": self.t_rest, "rest_speed": self.rest_speed, "peak_speed": self.peak_speed,
             "stopped_at_rest": self.stopped_at_rest,
