@@ -32,7 +32,8 @@ def test_ci_runs_the_readme_test_command():
 
 def test_docstring_examples_run():
     """Doctests of the public modules (numpydoc Examples sections)."""
-    mods = ["granflow.rheology.base", "granflow.rheology.derive", "granflow.rheology"]
+    mods = ["granflow.rheology.base", "granflow.rheology.derive", "granflow.rheology", "granflow.diagnostics",
+            "granflow.output.accessor"]
     res = subprocess.run([sys.executable, "-m", "pytest", "-q", "--doctest-modules", "-p", "no:cacheprovider",
                           *[str(ROOT / "src" / (m.replace(".", "/") + ("/__init__.py" if m == "granflow.rheology" else ".py")))
                             for m in mods]], capture_output=True, text=True, cwd=ROOT)
