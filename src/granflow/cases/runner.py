@@ -80,7 +80,8 @@ UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
     "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
     "clipped_mass": "1 (fraction of the initial mass)", "limited_mass": "1 (fraction of the initial mass)", "phi_min": "1", "phi_max": "1",
-    "energy_residual_rel": "1 (of the released potential energy)", "energy": "J m-1",
+    "energy_residual_rel": "1 (of energy_residual.reference, the run's largest energy source; null if negligible)",
+    "energy": "J m-1",
     "wall_s": "s", "t_final": "s",
 }
 
@@ -417,7 +418,25 @@ class CaseRun:
         x_first = self.front_x[0] if self.front_x else float("nan")
         h = dg.deposit_thickness(g, st.phi, self.phi_max)
         closure = sim.model.closure
+        rms, _ = self._speeds()
+        still_moving = bool(self.case.settles and status is RunStatus.COMPLETED and self.t_rest is None)
+        warnings = []
+        length, time_unit = self.case.unit("length"), self.case.unit("time")
+        if still_moving:
+            ended = ("time.max_steps" if cfg.time.max_steps is not None and st.step >= cfg.time.max_steps
+                     else "time.stop_time")
+            runout = x_final - x_first
+            warnings.append(
+                f"still moving at t = {st.t:.4g} {time_unit} (rms granular speed {rms:.3g} "
+                f"{self.case.unit('speed')} > output.rest_speed {self.rest_speed:.3g}): the run reached "
+                f"{ended} before the flow came to rest, so the run-out "
+                + (f"{runout:.4g} {length}" if np.isfinite(runout) else "")
+                + " is not final; raise time.stop_time and set time.stop_at_rest")
+        energy = energy_residual(b)
         return {
+            "case": cfg.case.name, "status": status.value, "message": message,
+            "warnings": warnings, "still_moving": still_moving,
+            "rms_speed_final": rms,
             "case": cfg.case.name, "status": status.value, "message": message,
             "t_final": st.t, "stop_time": cfg.time.stop_time, "steps": st.step,
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
@@ -438,8 +457,10 @@ class CaseRun:
             "phi_min": float(st.phi.min()), "phi_max": float(st.phi.max()),
             "phi_max_before_clip": tot.max_phi_before_clip,
             "phi_min_before_clip": tot.min_phi_before_clip,
-            "energy_residual_rel": b.relative_residual,
-            "energy": {"released": b.released, "dissipated": b.dissipated, "kinetic": b.e_k,
+            "energy_residual_rel": energy["relative"],
+            "energy_residual": energy,
+            "energy": {"released": b.released, "released_gas": b.released_gas, "injected": b.injected,
+                       "dissipated": b.dissipated, "kinetic": b.e_k,
                        "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
                        "max_cells_negative_Z": tot.max_negative_Z},
@@ -454,9 +475,48 @@ class CaseRun:
             "case_diagnostics": self.case.diagnostics(sim, cfg),
             "files": {"output": OUTPUT_FILE,
                       "checkpoint": str(checkpoint.relative_to(self.directory)) if checkpoint else None},
-            "units": UNITS,
+            "units": case_units(self.case),
             "granflow_version": _version(), "git_revision": git_revision(),
         }
+
+
+ENERGY_REFERENCE_TOL = 1e-6
+"""An energy source smaller than this fraction of the energy present is no reference for the
+residual (a static layer releases round-off: its "relative" residual would be 1e10)."""
+
+
+def energy_residual(budget) -> dict[str, Any]:
+    """The energy-budget residual, absolute [J m-1], and relative to its reference: the largest
+    energy source of the run -- the released potential energy (collapses), the released gas energy
+    (a draining bed) or the injected gas energy. ``relative`` is null when even that source is
+    negligible (below :data:`ENERGY_REFERENCE_TOL` of the energy present: a layer at rest)."""
+    sources = {"released potential energy": budget.released,
+               "released gas energy": budget.released_gas,
+               "injected gas energy": budget.injected}
+    name, value = max(sources.items(), key=lambda kv: kv[1])
+    present = abs(budget.e_p0) + budget.e_k0 + budget.e_10 + abs(budget.injected)
+    usable = value > ENERGY_REFERENCE_TOL * present and value > 0.0
+    return {"absolute": budget.residual, "reference": name if usable else None,
+            "reference_value": value if usable else None,
+            "relative": budget.residual / value if usable else None,
+            "energy_present": present}
+
+
+def case_units(case) -> dict[str, str]:
+    """The ``units`` entry of summary.json in the case's own units (H0, sqrt(H0/g) for the
+    dimensionless Lagree column)."""
+    length, time_unit = case.unit("length"), case.unit("time")
+    speed, energy = case.unit("speed"), case.unit("energy")
+    units = dict(UNITS)
+    units.update({"runout_m": length, "front_position": f"{length} (t_s in {time_unit})",
+                  "final_height_at_wall": length, "t_rest": time_unit, "rest_speed": speed,
+                  "peak_speed": speed, "rms_speed_final": speed, "energy": energy,
+                  "energy_residual": f"{energy} (relative: 1, of the named reference)",
+                  "t_final": time_unit})
+    if case.units:
+        units["note"] = ("dimensionless case: keys ending in _m or _s are in the units above, "
+                         "not metres and seconds")
+    return units
 
 
 def _version() -> str:

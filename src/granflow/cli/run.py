@@ -228,6 +228,18 @@ def output_directory(args: argparse.Namespace, config) -> Path:
     return Path(DEFAULT_RUNS_DIR) / Path(args.case).stem
 
 
+def completion_line(case, s: dict) -> str:
+    """``completed t = 0.585 s in 585 steps (11.8 s wall); <the case's headline>`` in the case's
+    units; ``(still moving: not final)`` when a settling flow ended before coming to rest."""
+    from granflow.cases import headlines
+
+    headline = (case.headline or headlines.column_collapse)(s)
+    if s.get("still_moving"):
+        headline += " (still moving: not final)"
+    return (f"completed t = {s['t_final']:.6g} {case.unit('time')} in {s['steps']} steps "
+            f"({s['wall_s']:.1f} s wall); {headline}")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """``granflow run CASE.toml``; returns a :class:`RunExit` code."""
     from granflow.cases.runner import CaseRun, RunStatus
@@ -246,12 +258,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     s = result.summary
     where = f"output in {out}/ (output.nc, summary.json" + (
         f", {s['files']['checkpoint']})" if s["files"]["checkpoint"] else ")")
+    for warning in s.get("warnings", []):
+        print(f"granflow: warning: {warning}", file=sys.stderr)
     if result.status is RunStatus.COMPLETED:
-        runout = s["runout_m"]
-        print(f"granflow: completed t = {s['t_final']:.6g} s in {s['steps']} steps "
-              f"({s['wall_s']:.1f} s wall); run-out "
-              + (f"{runout:.4g} m" if runout is not None and math.isfinite(runout) else "n/a")
-              + f"; {where}")
+        print(f"granflow: {completion_line(run.case, s)}; {where}")
         return RunExit.COMPLETED
     if result.status is RunStatus.FAILED:
         print(f"granflow: run failed: {result.message}; {where}", file=sys.stderr)

@@ -1,0 +1,146 @@
+"""Issue 16, "first contact": what a new user hits in the first hour.
+
+* item 2: every collapse example runs to rest; a run that ends while still moving says so
+  (summary ``still_moving``/``warnings``, a console warning, "(still moving: not final)");
+* item 8: each case prints its own headline (no "run-out 0 m" for a sheared layer), and the energy
+  residual is reported absolutely with its reference (no -4e10 "relative" residual of a static bed);
+* item 6: dimensionless cases print their units.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from granflow.cases import CASES
+from granflow.cli import ExitCode, main
+from granflow.config import load_case
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+TINY = ["--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "output.figures=false"]
+
+
+def run(capsys, example: str, out: Path, *sets: str) -> tuple[dict, str, str]:
+    argv = ["run", str(EXAMPLES / example), "--out", str(out), "--quiet"]
+    for item in sets:
+        argv += ["--set", item]
+    code = main(argv)
+    stdout, stderr = capsys.readouterr()
+    assert code == ExitCode.OK, stderr
+    return json.loads((out / "summary.json").read_text()), stdout, stderr
+
+
+# ------------------------------------------------------------------------------ item 2
+def settling_examples() -> list[Path]:
+    """The examples of the cases whose flow comes to rest (collapses), read from the registry."""
+    out = []
+    for path in sorted(EXAMPLES.glob("*.toml")):
+        text = path.read_text()
+        if "[case]" in text and CASES.get(load_case(path).case.name).settles:
+            out.append(path)
+    return out
+
+
+def test_collapse_cases_are_the_settling_ones():
+    names = {n for n in CASES if CASES.get(n).settles}
+    assert names == {"column_collapse", "lagree_column"}
+    assert len(settling_examples()) >= 5
+
+
+@pytest.mark.parametrize("path", settling_examples(), ids=lambda p: p.name)
+def test_every_collapse_example_runs_to_rest(path):
+    """time.stop_at_rest is set and stop_time is an upper bound, not the end of the flow."""
+    cfg = load_case(path)
+    assert cfg.time.stop_at_rest is not None and cfg.time.stop_at_rest > 0, path.name
+    assert cfg.time.max_steps is None
+    assert cfg.time.stop_time >= 1.5 if cfg.case.name == "column_collapse" else cfg.time.stop_time >= 8.0
+
+
+def test_a_run_cut_off_while_moving_says_so(tmp_path, capsys):
+    s, out, err = run(capsys, "column_collapse_dry.toml", tmp_path / "cut", "time.stop_time=0.03",
+                      *TINY[1::2])
+    assert s["status"] == "completed" and s["t_rest"] is None
+    assert s["still_moving"] is True
+    assert s["rms_speed_final"] > s["rest_speed"]
+    assert len(s["warnings"]) == 1 and "still moving at t = 0.03 s" in s["warnings"][0]
+    assert "not final" in s["warnings"][0] and "time.stop_at_rest" in s["warnings"][0]
+    assert "granflow: warning: still moving" in err
+    assert "(still moving: not final)" in out
+
+
+def test_a_layer_at_rest_is_not_flagged(tmp_path, capsys):
+    """A 'column' filling the box is a layer at rest: t_rest is set from the first step on."""
+    s, out, err = run(capsys, "column_collapse_dry.toml", tmp_path / "rest", "time.stop_time=0.02",
+                      "setup.L0=0.375", "setup.H0=0.025", *TINY[1::2])
+    assert s["t_rest"] is not None
+    assert s["still_moving"] is False and s["warnings"] == []
+    assert "still moving" not in out + err
+
+
+# ------------------------------------------------------------------------------ item 8
+def test_sheared_layer_prints_its_own_headline(tmp_path, capsys):
+    s, out, _ = run(capsys, "sheared_layer.toml", tmp_path / "sh", "time.stop_time=5e-4",
+                    "output.figures=false")
+    d = s["case_diagnostics"]
+    assert "run-out" not in out
+    assert f"{d['max_error_rel']:.2e}" in out and f"{d['phi_eq']:.5g}" in out
+    assert s["still_moving"] is False and s["warnings"] == []
+
+
+def test_static_layer_headline_and_energy_without_a_reference(tmp_path, capsys):
+    """A layer at rest releases no energy: no relative residual (it used to be ~1e10), the
+    absolute residual is reported and is tiny compared with the energy present."""
+    s, out, _ = run(capsys, "static_layer.toml", tmp_path / "st", "time.stop_time=0.005",
+                    "output.figures=false")
+    assert "run-out" not in out and "pressure against lithostatic" in out
+    e = s["energy_residual"]
+    assert e["absolute"] == pytest.approx(s["energy"]["residual"], rel=0, abs=0)
+    assert e["reference"] is None and e["relative"] is None and s["energy_residual_rel"] is None
+    assert abs(e["absolute"]) <= 1e-6 * e["energy_present"]
+
+
+def test_energy_reference_is_the_largest_source():
+    """energy_residual against budgets built by hand."""
+    from types import SimpleNamespace
+
+    from granflow.cases.runner import energy_residual
+
+    def budget(released, released_gas, injected, residual=-0.5):
+        return SimpleNamespace(released=released, released_gas=released_gas, injected=injected,
+                               residual=residual, e_p0=-10.0, e_k0=0.0, e_10=2.0)
+
+    e = energy_residual(budget(2.0, 0.1, 0.0))
+    assert e["reference"] == "released potential energy" and e["relative"] == pytest.approx(-0.25)
+    e = energy_residual(budget(1e-14, 1.0, 0.0))   # a draining bed at rest: the gas energy
+    assert e["reference"] == "released gas energy" and e["relative"] == pytest.approx(-0.5)
+    e = energy_residual(budget(1e-14, -1e-15, 0.0))  # nothing released
+    assert e["reference"] is None and e["relative"] is None and e["absolute"] == -0.5
+
+
+def test_completion_line_of_each_case():
+    """The headline functions read the summary's own values (synthetic summaries)."""
+    from granflow.cli.run import completion_line
+
+    base = {"t_final": 0.5, "steps": 10, "wall_s": 1.0, "runout_m": 0.123,
+            "front_position": {"final_m": 0.223}, "still_moving": False}
+    line = completion_line(CASES.get("column_collapse"), base)
+    assert "run-out 0.123 m (front 0.223 m)" in line and "t = 0.5 s" in line
+    lag = dict(base, runout_m=1.5, case_diagnostics={"runout": {"x_f": 2.2, "relative": 2.1, "lambda1": 1.48}})
+    line = completion_line(CASES.get("lagree_column"), lag)
+    assert "run-out 1.5 H0" in line and "lambda1 = 1.48" in line and "sqrt(H0/g)" in line
+    assert " m" not in line.replace(" m)", "")  # no metres anywhere
+    incl = dict(base, case_diagnostics={"u_surface_m_s": 0.5, "u_surface_bagnold_m_s": 0.48,
+                                        "u_surface_rel_error": 0.5 / 0.48 - 1, "profile_max_error_rel": 0.03,
+                                        "steady": True})
+    line = completion_line(CASES.get("inclined_layer"), incl)
+    assert "Bagnold 0.48 m/s (+4.17 %)" in line and "run-out" not in line
+    defl = dict(base, case_diagnostics={"half_life_s": 0.0101, "series_half_life_s": 0.01,
+                                        "half_life_rel_error": 0.01, "max_error_rel": 4e-3})
+    line = completion_line(CASES.get("defluidisation_column"), defl)
+    assert "half-life 0.0101 s" in line and "(+1 %)" in line and "run-out" not in line
+    moving = dict(base, still_moving=True)
+    assert completion_line(CASES.get("column_collapse"), moving).endswith("(still moving: not final)")
+    assert math.isfinite(base["runout_m"])
