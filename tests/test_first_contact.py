@@ -144,3 +144,58 @@ def test_completion_line_of_each_case():
     moving = dict(base, still_moving=True)
     assert completion_line(CASES.get("column_collapse"), moving).endswith("(still moving: not final)")
     assert math.isfinite(base["runout_m"])
+
+
+# ------------------------------------------------------------------------------ item 6
+def test_dimensionless_case_prints_and_plots_its_own_units(tmp_path, capsys, monkeypatch):
+    """lagree_column: the console, output.nc, summary.json and both figures are in H0,
+    sqrt(H0/g), sqrt(g H0); front.png names the closure actually used (incompressible), not the
+    [closure] default (drucker_prager) that the case ignores."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import netCDF4
+    from matplotlib.figure import Figure
+
+    saved = {}
+    original = Figure.savefig
+
+    def keep(self, path, *args, **kwargs):
+        saved[Path(path).name] = self
+        return original(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    out = tmp_path / "lag"
+    s, stdout, stderr = run(capsys, "lagree_column.toml", out, "grid.nx=16", "grid.nz=16",
+                            "time.stop_time=0.2")
+    line = stdout.strip().splitlines()[-1]
+    assert "t = 0.2 sqrt(H0/g)" in line and "H0" in line
+    import re
+
+    head = re.sub(r"\([\d.]+ s wall\)", "", line.split("; output in")[0])  # wall time is in s
+    assert not re.search(r"\d (m|s|m/s)\b", head), head
+    assert "sqrt(g H0)" in stderr  # the still-moving warning, in the case's speed unit
+    assert s["units"]["runout_m"] == "H0" and s["units"]["t_final"] == "sqrt(H0/g)"
+    with netCDF4.Dataset(out / "output.nc") as nc:
+        assert nc["x"].units == "H0" and nc["time"].units == "sqrt(H0/g)"
+        assert nc["u"].units == "sqrt(g H0)" and nc["kinetic_energy"].units == "rho g H0^3"
+        assert nc.getncattr("closure") == "incompressible"
+    front = saved["front.png"].axes
+    assert front[0].get_xlabel() == "t [sqrt(H0/g)]" and front[0].get_ylabel() == "front position [H0]"
+    assert front[1].get_ylabel() == "kinetic energy [rho g H0^3]"
+    assert "incompressible" in front[0].get_title() and "drucker_prager" not in front[0].get_title()
+    snap = saved["snapshots.png"].axes[0]
+    assert snap.get_xlabel() == "x [H0]" and "sqrt(H0/g)" in snap.get_title()
+    assert s["figures"]["files"] == ["snapshots.png", "front.png"]
+
+
+def test_si_case_keeps_si_units(tmp_path, capsys):
+    import netCDF4
+
+    s, stdout, _ = run(capsys, "column_collapse_dry.toml", tmp_path / "si", "time.stop_time=0.01",
+                       *TINY[1::2])
+    with netCDF4.Dataset(tmp_path / "si" / "output.nc") as nc:
+        assert nc["x"].units == "m" and nc["time"].units == "s" and nc["p"].units == "Pa"
+        assert nc.getncattr("closure") == "drucker_prager"
+    assert s["units"]["runout_m"] == "m" and "note" not in s["units"]
+    assert " m (front " in stdout

@@ -107,6 +107,14 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
     return Path(path)
 
 
+def units_of(ds, name: str, default: str) -> str:
+    """The ``units`` attribute of ``ds[name]`` (the case's units: H0, sqrt(H0/g) for a
+    dimensionless case), else ``default``."""
+    if name in ds.variables:
+        return str(ds[name].attrs.get("units", default))
+    return default
+
+
 def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     """Figures of a ``granflow run`` output file: ``snapshots.png`` (phi, and p_f when non-zero,
     at the first, middle and last records, with the granular speed), ``front.png`` (front
@@ -122,6 +130,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     if n == 0:
         return []
     picks = sorted({0, n // 2, n - 1})
+    lu, tu = units_of(ds, "x", "m"), units_of(ds, "time", "s")
     has_pf = "p_f" in ds and float(abs(ds["p_f"]).max()) > 0
     rows = 2 if has_pf else 1
     x, z = ds["x"].values, ds["z"].values
@@ -138,16 +147,16 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
                 ax.contour(x, z, speed, levels=4, colors="k", linewidths=0.5)
         draw_front(ax, ds, i)
         ax.set_aspect("equal")
-        ax.set_title(f"phi, t = {float(snap['time']):.3g} s (contours: speed; dashed: front)", fontsize="small")
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("z [m]")
+        ax.set_title(f"phi, t = {float(snap['time']):.3g} {tu} (contours: speed; dashed: front)", fontsize="small")
+        ax.set_xlabel(f"x [{lu}]")
+        ax.set_ylabel(f"z [{lu}]")
         fig.colorbar(m, ax=ax, shrink=0.8)
         if has_pf:
             ax = axes[1, k]
             m = ax.pcolormesh(x, z, snap["p_f"].values.T, cmap="viridis", shading="auto")
             ax.set_aspect("equal")
-            ax.set_title(f"p_f [Pa], t = {float(snap['time']):.3g} s", fontsize="small")
-            ax.set_xlabel("x [m]")
+            ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
+            ax.set_xlabel(f"x [{lu}]")
             fig.colorbar(m, ax=ax, shrink=0.8)
     snap_path = outdir / "snapshots.png"
     fig.savefig(snap_path, dpi=100)
@@ -157,12 +166,12 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     t = ds["time"].values
     if "x_front" in ds:
         ax.plot(t, ds["x_front"].values, "k-", label="front x_f")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("front position [m]")
+    ax.set_xlabel(f"t [{tu}]")
+    ax.set_ylabel(f"front position [{lu}]")
     if "kinetic_energy" in ds:
         ax2 = ax.twinx()
         ax2.plot(t, ds["kinetic_energy"].values, "tab:red", label="kinetic energy")
-        ax2.set_ylabel("kinetic energy [J/m]", color="tab:red")
+        ax2.set_ylabel(f"kinetic energy [{units_of(ds, 'kinetic_energy', 'J m-1')}]", color="tab:red")
     ax.set_title(f"{ds.attrs.get('case', '')} ({ds.attrs.get('closure', '')})", fontsize="small")
     front_path = outdir / "front.png"
     fig.savefig(front_path, dpi=100)
@@ -173,8 +182,8 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         for k, xp in enumerate(ds["x_probe"].values):
             line, = ax.plot(t, ds["probe_p_f"].values[:, k], "-", label=f"p_f, x = {xp:.3g} m")
             ax.plot(t, ds["probe_p"].values[:, k], "--", color=line.get_color(), label=f"p, x = {xp:.3g} m")
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("basal pressure [Pa]")
+        ax.set_xlabel(f"t [{tu}]")
+        ax.set_ylabel(f"basal pressure [{units_of(ds, 'probe_p_f', 'Pa')}]")
         ax.legend(fontsize="small")
         ax.set_title("basal probes: pore pressure p_f (solid), granular pressure p (dashed)", fontsize="small")
         probes_path = outdir / "probes.png"
@@ -269,7 +278,8 @@ def _cmap(var: str) -> str:
 def _title(ds, var: str, index: int) -> str:
     n = ds.sizes["time"]
     t = float(ds["time"].values[index])
-    return f"{ds.attrs.get('case', 'granflow')}: {var}, t = {t:.4g} s (record {index + 1}/{n})"
+    return (f"{ds.attrs.get('case', 'granflow')}: {var}, t = {t:.4g} {units_of(ds, 'time', 's')} "
+            f"(record {index + 1}/{n})")
 
 
 def _surface(ax, ds, index: int, phi_c: float):

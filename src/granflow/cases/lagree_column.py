@@ -251,7 +251,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
 @CASES.register("lagree_column", setup_model=LagreeColumnSetup, check=check, diagnostics=diagnostics,
                 headline=headlines.lagree_column, settles=True,
                 units={"length": "H0", "time": "sqrt(H0/g)", "speed": "sqrt(g H0)",
-                       "energy": "rho g H0^3"},
+                       "pressure": "rho g H0", "rate": "sqrt(g/H0)", "energy": "rho g H0^3"},
                 summary="dimensionless column collapse of Lagree, Staron & Popinet (2011), mu(I)")
 def setup(config: CaseConfig) -> Simulation:
     """Model, initial state (at rest, lithostatic pressure ``p = 1 - z`` in the column) and stop

@@ -62,7 +62,8 @@ class Case:
         flagged in ``summary.json`` (``still_moving``, ``warnings``) and on the console.
     units : dict
         Units of the case's lengths, times, speeds and energies when they are not SI
-        (dimensionless cases): keys ``length``, ``time``, ``speed``, ``energy``; the summary,
+        (dimensionless cases): keys ``length``, ``time``, ``speed``, ``pressure``, ``rate``,
+        ``energy``; the summary, output.nc,
         the console line and the figures use them.
     """
 
@@ -82,7 +83,8 @@ class Case:
         return (self.units or {}).get(kind, SI_UNITS[kind])
 
 
-SI_UNITS = {"length": "m", "time": "s", "speed": "m s-1", "energy": "J m-1"}
+SI_UNITS = {"length": "m", "time": "s", "speed": "m s-1", "pressure": "Pa", "rate": "s-1",
+            "energy": "J m-1"}
 """Units of the dimensional cases."""
 
 

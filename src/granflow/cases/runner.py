@@ -76,6 +76,10 @@ SERIES_SPECS = {
     "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
     "x_front": ("m", f"front position: {dg.FRONT_DEFINITION} (attribute front_threshold_m; resolution dx)"),
 }
+UNIT_KINDS = ("length", "time", "speed", "pressure", "rate", "energy")
+SI_KIND = {"m": "length", "s": "time", "m s-1": "speed", "Pa": "pressure", "s-1": "rate", "J m-1": "energy"}
+"""The SI units of the output and the kind of quantity each stands for (a dimensionless case
+replaces them: :attr:`granflow.cases.registry.Case.units`)."""
 UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
     "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
@@ -203,30 +207,45 @@ class CaseRun:
     # --- output ---------------------------------------------------------------------------------
     def _declarations(self) -> tuple[dict, dict, dict]:
         g = self.grid
-        coords = {"x": (np.asarray(g.xc), {"units": "m", "long_name": "x of the cell centres",
+        unit = self.case_unit
+        length = unit("length")
+        coords = {"x": (np.asarray(g.xc), {"units": length, "long_name": "x of the cell centres",
                                           "axis": "X"}),
-                  "z": (np.asarray(g.zc), {"units": "m", "long_name": "height z of the cell centres",
+                  "z": (np.asarray(g.zc), {"units": length, "long_name": "height z of the cell centres",
                                           "axis": "Z", "positive": "up"})}
         variables = {}
         for name in self.config.output.fields:
             units, long_name = FIELD_SPECS[name]
             attrs = {"phi_max": self.phi_max} if name == "phi" else None
-            variables[name] = VariableSpec(("time", "x", "z"), units, long_name, attrs=attrs)
+            variables[name] = VariableSpec(("time", "x", "z"), unit(SI_KIND.get(units, units)), long_name,
+                                           attrs=attrs)
         for name, (units, long_name) in SERIES_SPECS.items():
-            variables[name] = VariableSpec(("time",), units, long_name)
+            variables[name] = VariableSpec(("time",), unit(SI_KIND.get(units, units)), long_name)
         if self.probe_cells.size:
             coords[PROBE_DIM] = (self.grid.xc[self.probe_cells], {
-                "units": "m", "long_name": "x of the cell centre of each basal probe"})
+                "units": length, "long_name": "x of the cell centre of each basal probe"})
             for name, (units, long_name) in PROBE_SPECS.items():
-                variables[name] = VariableSpec(("time", PROBE_DIM), units, long_name)
+                variables[name] = VariableSpec(("time", PROBE_DIM), unit(SI_KIND.get(units, units)), long_name)
         attrs = {"case": self.config.case.name, "config_effective": self.config.to_toml(),
                  "overrides": " ".join(self.config.overrides), "phi_max": self.phi_max,
-                 "front_threshold_m": self.threshold, "closure": self.config.closure.name}
+                 "front_threshold_m": self.threshold, "closure": self.sim.model.closure.name,
+                 **{f"{kind}_unit": unit(kind) for kind in UNIT_KINDS}}
+        if self.case.units:
+            attrs["units_note"] = (f"dimensionless case: lengths in {length}, times in {unit('time')}; "
+                                   "names ending in _m or _s keep those units")
         return coords, variables, attrs
+
+    def case_unit(self, kind: str) -> str:
+        """Unit of ``kind`` (``length``, ``time``, ``speed``, ``pressure``, ``rate``, ``energy``,
+        or an SI unit string, returned as is) in this case (:attr:`Case.units`)."""
+        if kind not in UNIT_KINDS:
+            return kind
+        return self.case.unit(kind)
 
     def _open_writer(self, resume: bool) -> NetCDFWriter:
         coords, variables, attrs = self._declarations()
-        kw = {"case_file": self.config.source_text, "title": f"granflow {self.config.case.name}"}
+        kw = {"case_file": self.config.source_text, "title": f"granflow {self.config.case.name}",
+              "time_units": self.case_unit("time")}
         if not resume:
             return NetCDFWriter(self.output_path, coords, variables, attrs, **kw)
         t = self.sim.state.t

@@ -180,7 +180,7 @@ class NetCDFWriter:
     def __init__(self, path: str | os.PathLike, coords: Mapping[str, tuple[Any, Mapping[str, Any]]],
                  variables: Mapping[str, VariableSpec], global_attrs: Mapping[str, Any] | None = None,
                  *, case_file: str = "", title: str = "granflow run",
-                 format: NetCDFFormat | str = NetCDFFormat.CLASSIC_64BIT) -> None:
+                 format: NetCDFFormat | str = NetCDFFormat.CLASSIC_64BIT, time_units: str = "s") -> None:
         self.path = Path(path)
         fmt = NetCDFFormat(format)
         shapes: dict[str, int] = {}
@@ -228,7 +228,7 @@ class NetCDFWriter:
             self._ds.setncatts({k: _attr_value(k, v) for k, v in attrs.items()})
             self._ds.createDimension(TIME_DIM, None)
             tvar = self._ds.createVariable(TIME_DIM, "f8", (TIME_DIM,))
-            tvar.setncatts(TIME_ATTRS)
+            tvar.setncatts({**TIME_ATTRS, "units": time_units})
             for name, (values, cattrs) in coords.items():
                 arr = np.asarray(values)
                 self._ds.createDimension(name, arr.size)
