@@ -99,9 +99,11 @@ def test_snapshot_draws_the_field_surface_and_units(run_dir, var):
     index = 2
     with netCDF4.Dataset(run_dir / "output.nc") as nc:
         phi_c = tomllib.loads(nc.getncattr("config_effective"))["numerics"]["ambient"]["phi_c"]
-        if var == "speed":
-            expected = np.hypot(np.asarray(nc["u"][index]), np.asarray(nc["w"][index]))
-            label = f"granular speed |u| [{nc['u'].units}]"
+        grains = np.asarray(nc["phi"][index], dtype=float) >= phi_c
+        if var == "speed":  # a grain quantity: blank in the ambient (issue 16 item 4)
+            expected = np.where(grains, np.hypot(np.asarray(nc["u"][index]), np.asarray(nc["w"][index])),
+                                np.nan)
+            label = f"grain speed |u|, grains only (phi >= {phi_c:g}) [{nc['u'].units}]"
         else:
             expected = np.asarray(nc[var][index], dtype=float)
             label = f"{nc[var].long_name} [{nc[var].units}]"
@@ -109,8 +111,10 @@ def test_snapshot_draws_the_field_surface_and_units(run_dir, var):
         fig, ax = plt.subplots()
         mesh, contour, bar = plotting.snapshot_axes(ax, ds.load(), var, index)
     try:
-        drawn = np.asarray(mesh.get_array()).reshape(expected.T.shape)
-        np.testing.assert_allclose(drawn, expected.T, rtol=1e-12, atol=0.0)
+        drawn = np.ma.filled(np.ma.masked_invalid(mesh.get_array()).astype(float), np.nan)
+        drawn = drawn.reshape(expected.T.shape)
+        np.testing.assert_allclose(drawn, expected.T, rtol=1e-12, atol=0.0, equal_nan=True)
+        assert np.isnan(expected).any() == (var == "speed")
         assert bar.ax.get_xlabel() == label
         assert contour is not None and list(contour.levels) == [phi_c]
     finally:

@@ -12,6 +12,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from granflow.cases import CASES
@@ -199,3 +200,70 @@ def test_si_case_keeps_si_units(tmp_path, capsys):
         assert nc.getncattr("closure") == "drucker_prager"
     assert s["units"]["runout_m"] == "m" and "note" not in s["units"]
     assert " m (front " in stdout
+
+
+# ------------------------------------------------------------------------------ item 4
+def _capture_figures(monkeypatch) -> dict:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    saved = {}
+    original = Figure.savefig
+
+    def keep(self, path, *args, **kwargs):
+        saved[Path(path).name] = self
+        return original(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    return saved
+
+
+def _speed_contours(fig):
+    from granflow import plotting
+
+    return [(ax, c) for ax in fig.axes for c in ax.collections if c.get_gid() == plotting.SPEED_CONTOUR_GID]
+
+
+def test_snapshot_speed_contours_are_grain_only_labelled_and_above_noise(tmp_path, capsys, monkeypatch):
+    """A collapse in motion: speed contours are labelled, every level is above the run's rest
+    speed, and no contour leaves the grains (phi >= phi_c, read from output.nc here)."""
+    import netCDF4
+
+    saved = _capture_figures(monkeypatch)
+    out = tmp_path / "cc"
+    s, _, _ = run(capsys, "column_collapse_dry.toml", out, "time.stop_time=0.1", "grid.nx=32",
+                  "grid.nz=12")
+    fig = saved["snapshots.png"]
+    contours = _speed_contours(fig)
+    assert contours, "the moving column has speed contours"
+    with netCDF4.Dataset(out / "output.nc") as nc:
+        x, z = np.asarray(nc["x"][:]), np.asarray(nc["z"][:])
+        phi = np.asarray(nc["phi"][:], dtype=float)
+        phi_c = float(nc.getncattr("phi_c"))
+        rest = float(nc.getncattr("rest_speed"))
+    dx, dz = x[1] - x[0], z[1] - z[0]
+    for ax, cs in contours:
+        assert min(cs.levels) > rest
+        assert len(ax.texts) >= 1  # clabel: the levels are labelled
+        record = int(np.argmin([abs(float(ax.get_title().split("t = ")[1].split()[0]) - t)
+                                for t in s["front_position"]["t_s"]]))
+        grains = phi[record] >= phi_c
+        top = np.array([z[np.flatnonzero(col)].max() if col.any() else -np.inf for col in grains])
+        for path in cs.get_paths():
+            for xv, zv in path.vertices:
+                i = int(np.clip(np.floor(xv / dx), 0, x.size - 1))
+                near = top[max(i - 1, 0): i + 2]
+                assert zv <= near.max() + dz / 2 + 1e-12, (xv, zv)
+    assert "grain speed" in fig.get_suptitle() and "front" in fig.get_suptitle()
+
+
+def test_static_layer_snapshot_draws_no_noise_contours(tmp_path, capsys, monkeypatch):
+    saved = _capture_figures(monkeypatch)
+    run(capsys, "static_layer.toml", tmp_path / "st", "time.stop_time=0.01")
+    from matplotlib.contour import ContourSet
+
+    assert "snapshots.png" in saved
+    drawn = [c for ax in saved["snapshots.png"].axes for c in ax.collections if isinstance(c, ContourSet)]
+    assert drawn == []  # no contour of the 1e-12 m/s noise of a layer at rest

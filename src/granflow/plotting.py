@@ -107,6 +107,62 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
     return Path(path)
 
 
+#: Relative speed levels of the snapshot contours (fractions of the record's largest grain speed).
+SPEED_LEVEL_FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
+SPEED_CONTOUR_GID = "speed"
+
+
+def rest_speed_of(ds) -> float:
+    """The run's rest speed (global attribute ``rest_speed``, else ``output.rest_speed`` or its
+    default 10 eps Lz from ``config_effective``) [speed units]: grain speeds below it are noise
+    for the figures, as for the rest criterion of the run."""
+    import tomllib
+
+    if "rest_speed" in ds.attrs:
+        return float(ds.attrs["rest_speed"])
+    try:
+        cfg = tomllib.loads(str(ds.attrs.get("config_effective", "")))
+        rest = cfg.get("output", {}).get("rest_speed")
+        if rest is not None:
+            return float(rest)
+        return 10.0 * float(cfg["numerics"]["eps"]) * float(cfg["grid"]["Lz"])
+    except (tomllib.TOMLDecodeError, KeyError, TypeError, ValueError):
+        return 0.0
+
+
+def grain_cells(ds, index: int | None = None):
+    """Boolean mask over (time, x, z) (or (x, z) for one record) of the cells holding grains,
+    phi >= phi_c (the ambient below phi_c is air, whose velocity is not grain motion); None
+    without a phi variable."""
+    if "phi" not in ds:
+        return None
+    phi = ds["phi"].transpose("time", "x", "z")
+    phi_c = free_surface_level(ds)
+    mask = np.asarray(phi.values, dtype=float) >= phi_c
+    return mask if index is None else mask[index]
+
+
+def speed_contours(ax, ds, index: int):
+    """Labelled contours of the grain speed |u| of record ``index`` (cells with phi >= phi_c
+    only), at :data:`SPEED_LEVEL_FRACTIONS` of its largest value, each level above the run's rest
+    speed; nothing where the grains are at rest (a static layer's 1e-12 m/s is not drawn).
+    Returns the ContourSet or None."""
+    speed = np.asarray(run_field(ds, SPEED).values[index], dtype=float)
+    finite = speed[np.isfinite(speed)]
+    if finite.size == 0:
+        return None
+    top = float(finite.max())
+    floor = rest_speed_of(ds)
+    levels = [f * top for f in SPEED_LEVEL_FRACTIONS if f * top > floor and f * top > 0.0]
+    if not levels:
+        return None
+    cs = ax.contour(ds["x"].values, ds["z"].values, np.ma.masked_invalid(speed).T, levels=levels,
+                    colors="k", linewidths=0.5)
+    cs.set_gid(SPEED_CONTOUR_GID)
+    ax.clabel(cs, fmt=lambda v: f"{v:.2g}", fontsize="xx-small", inline=True)
+    return cs
+
+
 def units_of(ds, name: str, default: str) -> str:
     """The ``units`` attribute of ``ds[name]`` (the case's units: H0, sqrt(H0/g) for a
     dimensionless case), else ``default``."""
@@ -142,12 +198,10 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         m = ax.pcolormesh(x, z, snap["phi"].values.T, vmin=0.0, vmax=float(ds.attrs.get("phi_max", 0.6)),
                           cmap="YlOrBr", shading="auto")
         if "u" in snap and "w" in snap:
-            speed = np.hypot(snap["u"].values, snap["w"].values).T
-            if speed.max() > 0:
-                ax.contour(x, z, speed, levels=4, colors="k", linewidths=0.5)
+            speed_contours(ax, ds, i)
         draw_front(ax, ds, i)
         ax.set_aspect("equal")
-        ax.set_title(f"phi, t = {float(snap['time']):.3g} {tu} (contours: speed; dashed: front)", fontsize="small")
+        ax.set_title(f"phi, t = {float(snap['time']):.3g} {tu}", fontsize="small")
         ax.set_xlabel(f"x [{lu}]")
         ax.set_ylabel(f"z [{lu}]")
         fig.colorbar(m, ax=ax, shrink=0.8)
@@ -158,6 +212,8 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
             ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
             ax.set_xlabel(f"x [{lu}]")
             fig.colorbar(m, ax=ax, shrink=0.8)
+    fig.suptitle(f"packing phi; labelled contours: grain speed [{units_of(ds, 'u', 'm s-1')}] where "
+                 f"phi >= {free_surface_level(ds):g}, above the rest speed; dashed: front x_f", fontsize="small")
     snap_path = outdir / "snapshots.png"
     fig.savefig(snap_path, dpi=100)
     plt.close(fig)
@@ -203,6 +259,8 @@ SPEED = "speed"
 #: Colour maps: packing, signed velocities (centred on zero), everything else.
 PHI_CMAP, SIGNED_CMAP, DEFAULT_CMAP = "YlOrBr", "RdBu_r", "viridis"
 SIGNED_VARIABLES = ("u", "w")
+#: Grain quantities, blanked in the ambient (phi < phi_c) by :func:`run_field`.
+GRAIN_VARIABLES = ("u", "w", "speed", "S")
 #: Frames per second of ``--animate`` GIFs and resolution of the figures.
 GIF_FPS = 5
 FIGURE_DPI = 100
@@ -221,6 +279,8 @@ def free_surface_level(ds) -> float:
 
     from granflow.model import AmbientParams
 
+    if "phi_c" in ds.attrs:  # written by granflow run
+        return float(ds.attrs["phi_c"])
     try:
         config = tomllib.loads(str(ds.attrs.get("config_effective", "")))
         return float(config["numerics"]["ambient"]["phi_c"])
@@ -230,7 +290,9 @@ def free_surface_level(ds) -> float:
 
 def run_field(ds, var: str):
     """The field ``var`` of a run dataset over (time, x, z), with ``units`` and ``long_name``
-    (``"speed"``: sqrt(u^2 + w^2) of the cell-centred velocities, in the units of ``u``).
+    (``"speed"``: sqrt(u^2 + w^2) of the cell-centred velocities, in the units of ``u``). The
+    grain quantities (:data:`GRAIN_VARIABLES`) are NaN in the ambient cells (phi < phi_c), whose
+    velocity is the air's, not the grains'.
 
     Raises
     ------
@@ -240,11 +302,18 @@ def run_field(ds, var: str):
     if var == SPEED:
         u, w = ds["u"], ds["w"]
         field = np.hypot(u, w)
-        field.attrs = {"units": u.attrs.get("units", ""), "long_name": "granular speed |u|"}
+        field.attrs = {"units": u.attrs.get("units", ""), "long_name": "grain speed |u|"}
     else:
         field = ds[var]
+    field = field.transpose("time", "x", "z")
+    mask = grain_cells(ds) if var in GRAIN_VARIABLES else None
+    if mask is not None:  # grain quantities only where there are grains (the ambient is air)
+        attrs = dict(field.attrs)
+        field = field.where(mask)
+        attrs["long_name"] = f"{attrs.get('long_name', var)}, grains only (phi >= {free_surface_level(ds):g})"
+        field.attrs = attrs
     field.name = var
-    return field.transpose("time", "x", "z")
+    return field
 
 
 def field_label(field) -> str:

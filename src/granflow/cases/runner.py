@@ -229,6 +229,7 @@ class CaseRun:
         attrs = {"case": self.config.case.name, "config_effective": self.config.to_toml(),
                  "overrides": " ".join(self.config.overrides), "phi_max": self.phi_max,
                  "front_threshold_m": self.threshold, "closure": self.sim.model.closure.name,
+                 "rest_speed": self.rest_speed, "phi_c": self.sim.model.ambient.phi_c,
                  **{f"{kind}_unit": unit(kind) for kind in UNIT_KINDS}}
         if self.case.units:
             attrs["units_note"] = (f"dimensionless case: lengths in {length}, times in {unit('time')}; "
