@@ -132,6 +132,7 @@ def test_existing_output_needs_overwrite_or_restart(tiny_run, capsys, tmp_path):
     _, out = tiny_run
     code, _, err = run_cli(capsys, "run", EXAMPLE, "--out", out, *TINY)
     assert code == ExitCode.BAD_INPUT and "--overwrite" in err and len(err.strip().splitlines()) == 1
+    assert "--out DIR" in err and "the grid must be the same" in err  # issue 16 item 3
     code, _, err = tiny(capsys, tmp_path / "o", 0.003)
     assert code == RunExit.COMPLETED
     code, _, err = tiny(capsys, tmp_path / "o", 0.002, "--overwrite")

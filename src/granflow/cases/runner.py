@@ -163,8 +163,10 @@ class CaseRun:
         self.directory = Path(directory)
         self.output_path = self.directory / OUTPUT_FILE
         if restart is None and self.output_path.exists() and not overwrite:
-            raise GranflowInputError(f"{self.output_path} exists; continue it with --restart "
-                                     f"{self.directory}, or replace it with --overwrite")
+            raise GranflowInputError(f"{self.output_path} exists (an earlier run); write this run elsewhere "
+                                     f"with --out DIR, replace it with --overwrite, or continue that run "
+                                     f"with --restart {self.directory} (only with its case file and --set "
+                                     f"options: the grid must be the same)")
         self.sim: Simulation = self.case.setup(config)
         self.grid = self.sim.model.grid
         self.phi_max = self.sim.model.material.phi_max
