@@ -112,6 +112,8 @@ class Progress:
     steps_per_s: float
     eta_s: float
     wall_s: float
+    warming_up: bool = False
+    """True until a step has been timed without the first one (which compiles the kernels)."""
 
 
 @dataclass(frozen=True)
@@ -204,6 +206,9 @@ class CaseRun:
             for old in self.checkpoints.steps():
                 self.checkpoints.path(old).unlink(missing_ok=True)
         self._session_t0 = (self.sim.state.t, time.perf_counter())
+        self._after_first: tuple[float, float, int] | None = None
+        """(t, wall, reports) at the end of the session's first step: the rate and ETA leave out
+        that step, which compiles the Numba kernels."""
         self.writer = self._open_writer(resume=restart is not None and self.output_path.exists())
 
     # --- output ---------------------------------------------------------------------------------
@@ -317,14 +322,19 @@ class CaseRun:
             sim.stop_time = sim.state.t  # at rest long enough: done() is now true, status completed
             self.stopped_at_rest = True
         if self.progress is not None and sim.reports:
-            t0, w0 = self._session_t0
-            elapsed = time.perf_counter() - w0
+            now = time.perf_counter()
             n = len(sim.reports)
-            rate = (sim.state.t - t0) / elapsed if elapsed > 0 else 0.0
+            if self._after_first is None:  # the first step of a session compiles the kernels
+                self._after_first = (sim.state.t, now, n)
+            t0, w0, n0 = self._after_first
+            elapsed = now - w0
+            warming = n <= n0  # no step timed yet without the compilation: no rate, no ETA
+            rate = (sim.state.t - t0) / elapsed if elapsed > 0 and not warming else 0.0
             eta = (sim.stop_time - sim.state.t) / rate if rate > 0 else float("inf")
             self.progress(Progress(t=sim.state.t, stop_time=sim.stop_time, dt=sim.reports[-1].dt,
-                                   step=sim.state.step, steps_per_s=n / elapsed if elapsed > 0 else 0.0,
-                                   eta_s=eta, wall_s=self.wall_s()))
+                                   step=sim.state.step,
+                                   steps_per_s=(n - n0) / elapsed if elapsed > 0 and not warming else 0.0,
+                                   eta_s=eta, wall_s=self.wall_s(), warming_up=warming))
 
     def wall_s(self) -> float:
         """Wall time of the run so far, over all restarts [s]."""
@@ -454,6 +464,13 @@ class CaseRun:
                 f"{ended} before the flow came to rest, so the run-out "
                 + (f"{runout:.4g} {length}" if np.isfinite(runout) else "")
                 + " is not final; raise time.stop_time and set time.stop_at_rest")
+        if tot.not_converged:
+            pic = cfg.numerics.picard
+            warnings.append(
+                f"Picard iteration not converged in {tot.not_converged} of {st.step} steps "
+                f"({100.0 * tot.not_converged / max(st.step, 1):.0f} %): those steps were accepted after "
+                f"numerics.picard.max_sweeps = {pic.max_sweeps} sweeps with a velocity increment between "
+                f"tol = {pic.tol:g} and fail_tol = {pic.fail_tol:g}")
         energy = energy_residual(b)
         return {
             "case": cfg.case.name, "status": status.value, "message": message,
@@ -485,6 +502,7 @@ class CaseRun:
                        "dissipated": b.dissipated, "kinetic": b.e_k,
                        "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
+                       "not_converged_fraction": tot.not_converged / st.step if st.step else 0.0,
                        "max_cells_negative_Z": tot.max_negative_Z},
             "linear_solver": {"name": sim.model.linear_solver_name,
                               "krylov_iterations": tot.linear_iterations,

@@ -170,8 +170,24 @@ class ProgressPrinter:
 
     @staticmethod
     def line(p) -> str:
+        if getattr(p, "warming_up", False):  # the first step's time is the kernels' compilation
+            return (f"t = {p.t:.4g}/{p.stop_time:.4g} s  step {p.step}  dt = {p.dt:.3g} s  "
+                    f"compiling kernels (once)  wall {_duration(p.wall_s)}")
         return (f"t = {p.t:.4g}/{p.stop_time:.4g} s  step {p.step}  dt = {p.dt:.3g} s  "
                 f"{p.steps_per_s:.1f} steps/s  wall {_duration(p.wall_s)}  ETA {_duration(p.eta_s)}")
+
+    def starting(self, t: float, stop_time: float) -> None:
+        """Before the first step, which compiles the Numba kernels (seconds, once per
+        installation): say so instead of leaving the terminal silent or showing an absurd ETA."""
+        text = f"t = {t:.4g}/{stop_time:.4g} s  step 0  compiling kernels (once)"
+        if self._rich is not None:
+            self._rich.update(self._task, total=stop_time, completed=t, description=text)
+        elif self.tty:
+            self.stream.write("\r" + text + "\x1b[K")
+            self.stream.flush()
+        else:
+            self.stream.write(f"granflow: {text}\n")
+            self.stream.flush()
 
     def __call__(self, p) -> None:
         now = time.monotonic()
@@ -236,6 +252,9 @@ def completion_line(case, s: dict) -> str:
     headline = (case.headline or headlines.column_collapse)(s)
     if s.get("still_moving"):
         headline += " (still moving: not final)"
+    unconverged = (s.get("picard") or {}).get("not_converged_steps")
+    if unconverged:
+        headline += f"; Picard not converged in {unconverged} of {s['steps']} steps"
     return (f"completed t = {s['t_final']:.6g} {case.unit('time')} in {s['steps']} steps "
             f"({s['wall_s']:.1f} s wall); {headline}")
 
@@ -250,6 +269,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     printer = None if args.quiet else ProgressPrinter(sys.stderr, config.output.log_interval)
     try:
         run = CaseRun(config, out, restart=args.restart, progress=printer, overwrite=args.overwrite)
+        if printer is not None:
+            printer.starting(run.sim.state.t, run.sim.stop_time)
         with stop_on_sigint(run.sim):
             result = run.run()
     finally:
@@ -258,9 +279,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     s = result.summary
     where = f"output in {out}/ (output.nc, summary.json" + (
         f", {s['files']['checkpoint']})" if s["files"]["checkpoint"] else ")")
-    for warning in s.get("warnings", []):
-        print(f"granflow: warning: {warning}", file=sys.stderr)
-    if result.status is RunStatus.COMPLETED:
+    if result.status is RunStatus.COMPLETED:  # (a failed or interrupted run keeps its one line)
+        for warning in s.get("warnings", []):
+            print(f"granflow: warning: {warning}", file=sys.stderr)
         print(f"granflow: {completion_line(run.case, s)}; {where}")
         return RunExit.COMPLETED
     if result.status is RunStatus.FAILED:
