@@ -311,3 +311,61 @@ def test_picard_non_convergence_is_reported(tmp_path, capsys):
         t_final=1.0, steps=728, wall_s=1.0, runout_m=0.2, front_position={"final_m": 0.3},
         picard={"not_converged_steps": 136}))
     assert line.endswith("; Picard not converged in 136 of 728 steps")
+
+
+# ------------------------------------------------------------------------------ item 11
+def test_derive_prints_a_simplified_f_equal_to_the_derivation(capsys):
+    import re
+
+    import sympy as sp
+
+    from granflow.rheology import derive_dilatancy
+    from granflow.rheology.derive import I, I_eq
+
+    expr = "0.38 + 0.27*I/(I + 0.3)"
+    assert main(["derive", expr]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert not re.search(r"\d{13,}", out)  # it printed log(443426488243037769948249630619149892803/...)
+    assert "LaTeX" not in out
+    printed = next(ln for ln in out.splitlines() if ln.strip().startswith("f = ")).split("=", 1)[1]
+    f_printed = sp.sympify(printed, locals={"I": I, "I_eq": I_eq})
+    exact = derive_dilatancy(expr).f
+    for i_val, ieq_val in ((0.01, 0.2), (0.7, 0.05), (2.0, 1.3)):
+        point = {I: i_val, I_eq: ieq_val}
+        assert float(f_printed.subs(point)) == pytest.approx(float(exact.subs(point)), rel=1e-12)
+    assert main(["derive", expr, "--latex"]) == ExitCode.OK
+    assert "LaTeX: " in capsys.readouterr().out
+
+
+def test_ctrl_c_during_start_up_exits_130(monkeypatch, capsys):
+    import granflow.cli as cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    assert main(["run", "x.toml"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+
+
+def test_vtk_first_edge_is_exactly_zero():
+    from granflow.output.vtk import _edges
+
+    dx = 0.4 / 40
+    centres = (np.arange(40) + 0.5) * dx
+    edges = _edges(centres)
+    assert edges[0] == 0.0 and edges[-1] == pytest.approx(0.4, rel=1e-12)
+    np.testing.assert_allclose(np.diff(edges), dx, rtol=1e-9)
+
+
+def test_readme_names_every_figure_the_flagship_writes():
+    """The figures run_figures writes for the flagship (probes.png when output.probes_x is set)
+    are the ones the README's opening paragraph lists, and their number is spelled right."""
+    cfg = load_case(EXAMPLES / "column_collapse_fluidised.toml")
+    expected = ["snapshots.png", "front.png"] + (["probes.png"] if cfg.output.probes_x else [])
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    opening = text.split("## ")[0]
+    for name in expected:
+        assert f"`{name}`" in opening, name
+    words = {2: "two", 3: "three"}
+    assert f"{words[len(expected)]} figures" in opening
