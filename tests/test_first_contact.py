@@ -181,6 +181,7 @@ def test_dimensionless_case_prints_and_plots_its_own_units(tmp_path, capsys, mon
     assert s["units"]["runout_m"] == "H0" and s["units"]["t_final"] == "sqrt(H0/g)"
     with netCDF4.Dataset(out / "output.nc") as nc:
         assert nc["x"].units == "H0" and nc["time"].units == "sqrt(H0/g)"
+        assert "standard_name" not in nc["time"].ncattrs() and "standard_name" not in nc["z"].ncattrs()
         assert nc["u"].units == "sqrt(g H0)" and nc["kinetic_energy"].units == "rho g H0^3"
         assert nc.getncattr("closure") == "incompressible"
     front = saved["front.png"].axes
@@ -199,6 +200,9 @@ def test_si_case_keeps_si_units(tmp_path, capsys):
                        *TINY[1::2])
     with netCDF4.Dataset(tmp_path / "si" / "output.nc") as nc:
         assert nc["x"].units == "m" and nc["time"].units == "s" and nc["p"].units == "Pa"
+        # CF (issue 16 item 11): a time axis with units s and axis T, standard names
+        assert nc["time"].axis == "T" and nc["time"].standard_name == "time"
+        assert nc["z"].standard_name == "height" and nc["z"].positive == "up"
         assert nc.getncattr("closure") == "drucker_prager"
     assert s["units"]["runout_m"] == "m" and "note" not in s["units"]
     assert " m (front " in stdout

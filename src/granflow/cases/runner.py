@@ -219,7 +219,8 @@ class CaseRun:
         coords = {"x": (np.asarray(g.xc), {"units": length, "long_name": "x of the cell centres",
                                           "axis": "X"}),
                   "z": (np.asarray(g.zc), {"units": length, "long_name": "height z of the cell centres",
-                                          "axis": "Z", "positive": "up"})}
+                                          "axis": "Z", "positive": "up",
+                                          **({"standard_name": "height"} if length == "m" else {})})}
         variables = {}
         for name in self.config.output.fields:
             units, long_name = FIELD_SPECS[name]
