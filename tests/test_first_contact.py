@@ -373,3 +373,87 @@ def test_readme_names_every_figure_the_flagship_writes():
         assert f"`{name}`" in opening, name
     words = {2: "two", 3: "three"}
     assert f"{words[len(expected)]} figures" in opening
+
+
+# ------------------------------------------------------------------------------ item 9
+def _lines_by_label(ax) -> dict:
+    return {ln.get_label(): ln for ln in ax.get_lines()}
+
+
+def test_defluidisation_figure_is_p_f_against_the_series(tmp_path, capsys, monkeypatch):
+    saved = _capture_figures(monkeypatch)
+    s, _, _ = run(capsys, "defluidisation_column.toml", tmp_path / "d", "grid.nz=6",
+                  "time.stop_time=0.05", "time.dt_max=1e-3")
+    assert "basal_pressure.png" in s["figures"]["files"]
+    top, bottom = saved["basal_pressure.png"].axes
+    rec = s["case_diagnostics"]["basal_record"]
+    lines = _lines_by_label(top)
+    series = next(ln for k, ln in lines.items() if k.startswith("Fourier"))
+    data = next(ln for k, ln in lines.items() if k.startswith("granflow"))
+    np.testing.assert_allclose(series.get_ydata(), rec["series_Pa"], rtol=1e-12)
+    np.testing.assert_allclose(data.get_ydata(), rec["p_f_Pa"], rtol=1e-12)
+    amp = s["case_diagnostics"]["p_f0_base_Pa"]
+    err = (np.asarray(rec["p_f_Pa"]) - np.asarray(rec["series_Pa"])) / amp
+    np.testing.assert_allclose(bottom.get_lines()[0].get_ydata(), err, rtol=1e-9, atol=1e-15)
+    assert top.get_ylabel() == "basal pore pressure p_f [Pa]" and bottom.get_xlabel() == "t [s]"
+    lo, hi = top.get_ylim()
+    assert lo <= min(rec["p_f_Pa"]) and hi >= max(rec["p_f_Pa"])
+
+
+def test_inclined_figure_is_u_of_z_against_bagnold(tmp_path, capsys, monkeypatch):
+    import netCDF4
+
+    saved = _capture_figures(monkeypatch)
+    out = tmp_path / "i"
+    s, _, _ = run(capsys, "inclined_layer.toml", out, "time.stop_time=1.0")
+    d = s["case_diagnostics"]
+    profile, surface = saved["profile.png"].axes
+    lines = _lines_by_label(profile)
+    bagnold = lines["Bagnold"]
+    assert max(bagnold.get_xdata()) == pytest.approx(d["u_surface_bagnold_m_s"], rel=1e-12)
+    assert max(bagnold.get_ydata()) == pytest.approx(d["h_m"], rel=1e-12)
+    with netCDF4.Dataset(out / "output.nc") as nc:
+        u = np.asarray(nc["u"][-1], dtype=float)
+        grains = np.asarray(nc["phi"][-1], dtype=float) >= nc.getncattr("phi_c")
+    import warnings
+
+    with warnings.catch_warnings():  # the ambient rows have no grain cell: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
+        expected = np.nanmean(np.where(grains, u, np.nan), axis=0)
+    drawn = next(ln for k, ln in lines.items() if k.startswith("granflow")).get_xdata()
+    np.testing.assert_allclose(np.asarray(drawn, dtype=float), expected, rtol=1e-12, equal_nan=True)
+    assert profile.get_xlabel() == "u [m s-1]" and profile.get_ylabel() == "z [m]"
+    us = _lines_by_label(surface)["surface speed u_s"]
+    np.testing.assert_allclose(us.get_ydata(), d["u_surface_record"]["u_m_s"], rtol=1e-12)
+    snap = saved["snapshots.png"].axes[0]
+    assert snap.get_aspect() == "auto"  # a 4 x 22 box drawn to scale was a sliver
+
+
+def test_sheared_layer_figure_and_static_front_figure(tmp_path, capsys, monkeypatch):
+    saved = _capture_figures(monkeypatch)
+    s, _, _ = run(capsys, "sheared_layer.toml", tmp_path / "s", "time.stop_time=5e-4")
+    rec = s["case_diagnostics"]["phi_record"]
+    lines = _lines_by_label(saved["relaxation.png"].axes[0])
+    np.testing.assert_allclose(lines["granflow"].get_ydata(), rec["phi"], rtol=1e-12)
+    np.testing.assert_allclose(lines[s["case_diagnostics"]["reference"]].get_ydata(), rec["reference"], rtol=1e-12)
+    saved.clear()
+    run(capsys, "static_layer.toml", tmp_path / "st", "time.stop_time=0.01")
+    ke_axis = saved["front.png"].axes[1]
+    assert ke_axis.get_lines() == []  # no flat line at 1e-30 J/m
+    assert any(t.get_gid() == "at_rest" and "at rest" in t.get_text() for t in ke_axis.texts)
+
+
+def test_dispersion_plot_labels_fit_in_the_figure(tmp_path, monkeypatch):
+    saved = _capture_figures(monkeypatch)
+    assert main(["stability", "dispersion", "roux_radjai", "--I", "1e-2", "--p", "1000",
+                 "--plot", str(tmp_path / "rr.png")]) == ExitCode.OK
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = saved["rr.png"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    box = fig.bbox
+    for ax in fig.axes:
+        for label in (ax.xaxis.label, ax.yaxis.label, ax.title):
+            if label.get_text():
+                ext = label.get_window_extent(renderer)
+                assert ext.x0 >= box.x0 - 1 and ext.x1 <= box.x1 + 1 and ext.y0 >= box.y0 - 1 and ext.y1 <= box.y1 + 1, label.get_text()

@@ -427,6 +427,7 @@ class CaseRun:
         finally:
             self.writer.close()
             summary = self.summary(status, message, checkpoint)
+            self._summary_for_figures = summary
             if self.config.output.figures:
                 summary["figures"] = self._figures()
             write_json_atomic(self.directory / SUMMARY_FILE, summary)
@@ -438,6 +439,7 @@ class CaseRun:
             from granflow import plotting
 
             paths = plotting.run_figures(self.output_path, self.directory)
+            paths += plotting.case_figures(self.output_path, self._summary_for_figures, self.directory)
             return {"files": [p.name for p in paths]}
         except Exception as err:  # noqa: BLE001 - figures must not lose a finished run
             return {"error": f"{type(err).__name__}: {err}"}
