@@ -99,9 +99,11 @@ def test_snapshot_draws_the_field_surface_and_units(run_dir, var):
     index = 2
     with netCDF4.Dataset(run_dir / "output.nc") as nc:
         phi_c = tomllib.loads(nc.getncattr("config_effective"))["numerics"]["ambient"]["phi_c"]
-        if var == "speed":
-            expected = np.hypot(np.asarray(nc["u"][index]), np.asarray(nc["w"][index]))
-            label = f"granular speed |u| [{nc['u'].units}]"
+        grains = np.asarray(nc["phi"][index], dtype=float) >= phi_c
+        if var == "speed":  # a grain quantity: blank in the ambient (issue 16 item 4)
+            expected = np.where(grains, np.hypot(np.asarray(nc["u"][index]), np.asarray(nc["w"][index])),
+                                np.nan)
+            label = f"grain speed |u|, grains only (phi >= {phi_c:g}) [{nc['u'].units}]"
         else:
             expected = np.asarray(nc[var][index], dtype=float)
             label = f"{nc[var].long_name} [{nc[var].units}]"
@@ -109,12 +111,48 @@ def test_snapshot_draws_the_field_surface_and_units(run_dir, var):
         fig, ax = plt.subplots()
         mesh, contour, bar = plotting.snapshot_axes(ax, ds.load(), var, index)
     try:
-        drawn = np.asarray(mesh.get_array()).reshape(expected.T.shape)
-        np.testing.assert_allclose(drawn, expected.T, rtol=1e-12, atol=0.0)
+        drawn = np.ma.filled(np.ma.masked_invalid(mesh.get_array()).astype(float), np.nan)
+        drawn = drawn.reshape(expected.T.shape)
+        np.testing.assert_allclose(drawn, expected.T, rtol=1e-12, atol=0.0, equal_nan=True)
+        assert np.isnan(expected).any() == (var == "speed")
         assert bar.ax.get_xlabel() == label
         assert contour is not None and list(contour.levels) == [phi_c]
     finally:
         plt.close(fig)
+
+
+def test_snapshot_marks_the_front_with_the_runs_definition(run_dir):
+    """Issue 16 item 5: the front drawn on a snapshot is the run's front (right edge of the
+    furthest column whose deposit thickness exceeds the run's threshold, computed here from phi),
+    not the end of the phi = phi_c line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    from granflow import plotting
+
+    index = N_RECORDS - 1
+    with netCDF4.Dataset(run_dir / "output.nc") as nc:
+        x, z = np.asarray(nc["x"][:]), np.asarray(nc["z"][:])
+        phi = np.asarray(nc["phi"][index], dtype=float)
+        h = phi.sum(axis=1) * (z[1] - z[0]) / nc["phi"].phi_max
+        threshold = nc.getncattr("front_threshold_m")
+    dx = x[1] - x[0]
+    expected = x[np.flatnonzero(h > threshold)[-1]] + dx / 2
+    with xr.open_dataset(run_dir / "output.nc") as ds:
+        ds = ds.load()
+        for data in (ds, ds.drop_vars("x_front")):  # the stored series, or the accessor
+            fig, ax = plt.subplots()
+            try:
+                plotting.snapshot_axes(ax, data, "phi", index)
+                fronts = [ln for ln in ax.lines if ln.get_gid() == plotting.FRONT_GID]
+                assert len(fronts) == 1
+                assert fronts[0].get_xdata()[0] == pytest.approx(expected, abs=1e-12)
+                assert "front" in ax.get_title()
+            finally:
+                plt.close(fig)
 
 
 # ------------------------------------------------------------------------------ bad input

@@ -284,3 +284,47 @@ def test_example_sweep_is_valid():
         # everything else is the flagship's (plus empty tables of defaulted sections)
         assert {k: v for k, v in config.items() if k != "setup" and v != {}} == \
             {k: v for k, v in flagship.items() if k != "setup"}
+
+
+def test_sweep_reports_progress_and_closes_its_cluster_cleanly(tmp_path, capsys):
+    """Issue 16 item 7: a line per finished member with the count done (the sweep was silent
+    until the end) and no "Worker process still alive ... killing" at the shutdown of the local
+    cluster (distributed logs it through logging; captured here with the log records)."""
+    import logging
+
+    sweep = write_sweep(tmp_path)
+    records = []
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            records.append(record.getMessage())
+
+    handler = Keep(level=logging.WARNING)
+    logging.getLogger("distributed").addHandler(handler)
+    try:
+        code, _, stderr = run_cli(capsys, "sweep", sweep, "--out", tmp_path / "out", "--workers", "2")
+    finally:
+        logging.getLogger("distributed").removeHandler(handler)
+    assert code == ExitCode.FAILED  # the sweep file has one failing member
+    done = [ln for ln in stderr.splitlines() if ln.startswith("granflow: sweep: m")]
+    assert len(done) == 3
+    assert sorted(int(re.search(r"\((\d)/3 done", ln).group(1)) for ln in done) == [1, 2, 3]
+    assert sum(f"{FAILING} failed" in ln for ln in done) == 1
+    assert not [m for m in records if "still alive" in m], records
+
+
+def test_sweep_display_lines():
+    import io
+
+    from granflow.cli.sweep import SweepDisplay
+    from granflow.sweep import SweepProgress
+
+    stream = io.StringIO()
+    display = SweepDisplay(stream, tty=False)
+    display(SweepProgress(None, None, 0, 3, 12.0, {"m0000": {"t": 0.1, "stop_time": 0.5, "warming_up": False},
+                                                    "m0001": {"t": 0.0, "stop_time": 0.5, "warming_up": True}}, {}))
+    display(SweepProgress("m0000", "ok", 1, 3, 70.0, {}, {"runout_m": 0.1234}))
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == ("granflow: sweep: 0/3 done, 0:00:12 elapsed; running: m0000 t = 0.1/0.5, "
+                        "m0001 t = 0/0.5 (compiling kernels, once)")
+    assert lines[1] == "granflow: sweep: m0000 ok (1/3 done, 0:01:10 elapsed): run-out 0.1234 m"

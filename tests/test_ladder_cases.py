@@ -100,6 +100,14 @@ def test_defluidisation_column_follows_the_fourier_series(tmp_path):
     print(f"half-life {d['half_life_tau_1']:.4f} tau_1")
     assert d["half_life_tau_1"] == pytest.approx(HALF_LIFE_TAU1, rel=2e-2)
     assert d["half_life_rel_error"] == pytest.approx(d["half_life_tau_1"] / d["series_half_life_tau_1"] - 1)
+    # issue 16 item 8: the bed releases no potential energy (round-off); the residual is measured
+    # against the gas energy it drains (it was -4.35e10 "of the released potential energy")
+    e = summary["energy_residual"]
+    assert summary["energy"]["released"] < 1e-9 * e["energy_present"]
+    assert e["reference"] == "released gas energy"
+    assert e["reference_value"] == pytest.approx(summary["energy"]["released_gas"], rel=1e-12)
+    assert e["relative"] == pytest.approx(e["absolute"] / e["reference_value"], rel=1e-12)
+    assert abs(summary["energy_residual_rel"]) < 0.05
 
 
 def test_uniform_over_pressure_lifts_the_surface_and_is_flagged(tmp_path):

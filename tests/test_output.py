@@ -302,22 +302,27 @@ def test_deposit_thickness_of_triangle():
 def test_front_and_runout_of_triangle(thr):
     ds = triangle_dataset()
     exact = LENGTHS * (1.0 - thr / H0)  # H(x_f) = thr
-    cell = np.array([XC[H(XC, L) > thr].max() for L in LENGTHS])
+    edge = np.array([XC[H(XC, L) > thr].max() + DX / 2 for L in LENGTHS])  # right edge of the column
     lin = ds.granflow.front_position(threshold=thr, method="linear")
     assert lin.dims == ("time",) and lin.attrs["units"] == "m"
     np.testing.assert_allclose(lin.values, exact, rtol=RTOL)
-    np.testing.assert_allclose(ds.granflow.front_position(threshold=thr).values, cell, rtol=RTOL)
+    np.testing.assert_allclose(ds.granflow.front_position(threshold=thr).values, edge, rtol=RTOL)
     r = ds.granflow.runout(threshold=thr, method="linear")
     assert r.ndim == 0 and r.attrs["units"] == "m"
     np.testing.assert_allclose(float(r), exact[-1] - exact[0], rtol=RTOL)
-    np.testing.assert_allclose(float(ds.granflow.runout(threshold=thr)), cell[-1] - cell[0],
+    np.testing.assert_allclose(float(ds.granflow.runout(threshold=thr)), edge[-1] - edge[0],
                                rtol=RTOL)
+    # the front is within one column of the exact crossing (its documented resolution)
+    assert np.all(np.abs(edge - exact) <= DX)
+    assert ds.granflow.front_position(thr).attrs["resolution"] == pytest.approx(DX, rel=1e-9)
     # the same flow spreading towards -x
     mirror = ds.assign_coords(x=("x", -XC, {"units": "m"})).isel(x=slice(None, None, -1))
     np.testing.assert_allclose(mirror.granflow.front_position(thr, "linear", "-x").values,
                                -exact, rtol=RTOL)
     np.testing.assert_allclose(float(mirror.granflow.runout(thr, "linear", "-x")),
                                exact[-1] - exact[0], rtol=RTOL)
+    np.testing.assert_allclose(mirror.granflow.front_position(thr, direction="-x").values, -edge,
+                               rtol=RTOL)
 
 
 def test_front_defaults_and_edge_cases():

@@ -106,6 +106,10 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
         assert ds.attrs["front_threshold_m"] == thr
         fronts = [front_from_phi(ds["phi"][i].values, edges, 0.025, thr) for i in range(ds.sizes["time"])]
         assert s["front_position"]["x_m"] == pytest.approx(fronts, abs=1e-12)
+        # one definition: the accessor, the x_front series and the summary give the same fronts
+        assert ds.granflow.front_position().values.tolist() == pytest.approx(fronts, abs=1e-12)
+        assert ds["x_front"].values.tolist() == pytest.approx(fronts, abs=1e-12)
+        assert s["front_position"]["resolution_m"] == pytest.approx(0.4 / 16, rel=1e-12)
         assert s["runout_m"] == pytest.approx(fronts[-1] - fronts[0], abs=1e-12)
         assert float(ds.granflow.runout(threshold=thr)) == pytest.approx(s["runout_m"], abs=1e-12)
         assert float(ds.granflow.runout()) == pytest.approx(s["runout_m"], abs=1e-12)  # the run's threshold
@@ -120,14 +124,17 @@ def test_progress_lines_when_not_on_a_terminal(tmp_path, capsys):
                            "--set", "output.log_interval=1e-9")
     assert code == RunExit.COMPLETED
     lines = [ln for ln in err.splitlines() if ln.startswith("granflow: t = ")]
-    assert len(lines) == 5  # one per step with a tiny log interval
-    assert all("steps/s" in ln and "ETA" in ln and "dt = " in ln for ln in lines)
+    assert len(lines) == 6  # before the first step, then one per step with a tiny log interval
+    # the first step compiles the kernels: no ETA from it (issue 16 item 7)
+    assert all("compiling kernels (once)" in ln and "ETA" not in ln for ln in lines[:2])
+    assert all("steps/s" in ln and "ETA" in ln and "dt = " in ln for ln in lines[2:])
 
 
 def test_existing_output_needs_overwrite_or_restart(tiny_run, capsys, tmp_path):
     _, out = tiny_run
     code, _, err = run_cli(capsys, "run", EXAMPLE, "--out", out, *TINY)
     assert code == ExitCode.BAD_INPUT and "--overwrite" in err and len(err.strip().splitlines()) == 1
+    assert "--out DIR" in err and "the grid must be the same" in err  # issue 16 item 3
     code, _, err = tiny(capsys, tmp_path / "o", 0.003)
     assert code == RunExit.COMPLETED
     code, _, err = tiny(capsys, tmp_path / "o", 0.002, "--overwrite")

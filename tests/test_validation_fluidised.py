@@ -158,3 +158,22 @@ def test_converged_study_coarsest_level_reproduces_and_is_in_the_roche_band(tmp_
     row = next(r for r in stored["analysis"]["thr0.05"] if r["a"] == 1.0 and r["state"] == "b0.9_phi0.58")
     assert ROCHE_RATIO[0] <= row["ratio"]["value"] - row["ratio"]["uncertainty"]
     assert row["ratio"]["value"] + row["ratio"]["uncertainty"] <= ROCHE_RATIO[1]
+
+
+def test_stored_fronts_follow_the_one_front_definition():
+    """Issue 16 item 5: the stored final fronts are granflow.diagnostics.front_from_thickness
+    ("edge") of the stored deposit, and the sensitivity table's sub-cell fronts ("linear") are
+    reproduced by the same function (so the scripts carry no front definition of their own)."""
+    from granflow import diagnostics as dg
+
+    vfd = _load_run()
+    stored = json.loads((ROOT / "validation" / "fluidised_vs_dry" / "results.json").read_text())
+    threshold = stored["meta"]["front_threshold_m"]
+    for name, r in stored["runs"].items():
+        x, h = np.asarray(r["x_m"]), np.asarray(r["h_final_m"])
+        edges = np.concatenate([x - 0.5 * r["dx_m"], x[-1:] + 0.5 * r["dx_m"]])
+        assert dg.front_from_thickness(edges, h, threshold) == pytest.approx(r["front_final_m"], abs=1e-9), name
+    again = vfd.sensitivity(stored["runs"])
+    for name, by_thr in stored["front_definition"].items():
+        for thr, row in by_thr.items():
+            assert again[name][thr]["runout_over_L0"] == pytest.approx(row["runout_over_L0"], rel=1e-9)

@@ -342,6 +342,30 @@ class CaseConfig(Section):
 # --------------------------------------------------------------------------------------------
 # Loading and validation (TOML reading and --set overrides: granflow.cases.options)
 # --------------------------------------------------------------------------------------------
+EXTRA_SET_ENV = "GRANFLOW_EXTRA_SET"
+"""Environment variable of extra ``--set`` items applied after the command line's, for tests that
+run the documentation's commands on small grids: ``;``-separated ``key=value`` items, each
+optionally scoped to one case as ``case:key=value``. Unset in normal use."""
+
+
+def environment_overrides(case_name: str | None) -> list[str]:
+    """The items of :data:`EXTRA_SET_ENV` that apply to ``case_name``."""
+    import os
+
+    out = []
+    for item in os.environ.get(EXTRA_SET_ENV, "").split(";"):
+        item = item.strip()
+        if not item:
+            continue
+        scope, sep, rest = item.partition(":")
+        if sep and "=" not in scope:
+            if scope == case_name:
+                out.append(rest.strip())
+        else:
+            out.append(item)
+    return out
+
+
 def load_case(path: str | Path, overrides: list[str] | None = None) -> CaseConfig:
     """Read, override and validate a case file.
 
@@ -366,7 +390,9 @@ def load_case(path: str | Path, overrides: list[str] | None = None) -> CaseConfi
     from granflow.cases.options import apply_overrides, read_toml
 
     text, data = read_toml(path)
-    data = apply_overrides(data, list(overrides or []))
+    section = data.get("case") if isinstance(data.get("case"), dict) else {}
+    case_name = section.get("name", "column_collapse")  # the default of [case] name
+    data = apply_overrides(data, list(overrides or []) + environment_overrides(case_name))
     try:
         cfg = _validate(data)
     except GranflowInputError as err:

@@ -112,15 +112,78 @@ def deposit_thickness(grid: Grid, phi, phi_max: float) -> np.ndarray:
     return np.sum(phi, axis=1) * grid.dz / phi_max
 
 
-def front_position(grid: Grid, phi, phi_max: float, threshold: float) -> float:
-    """Furthest x [m] (right edge of the column) where :func:`deposit_thickness` > threshold [m];
-    ``nan`` if no column qualifies (NUMERICS.md §10) or if the grid is periodic in x (a front
-    has no meaning there)."""
+#: The front definition, used by the run (``x_front``, ``summary.json``), the ``ds.granflow``
+#: accessor, the figures and the validation scripts (docs/cases.md, "Front position").
+FRONT_DEFINITION = ("right edge of the furthest column whose deposit thickness "
+                    "h = sum_z(phi dz)/phi_max exceeds the threshold")
+FRONT_EDGE, FRONT_LINEAR = "edge", "linear"
+FRONT_METHODS = (FRONT_EDGE, FRONT_LINEAR)
+
+
+def front_from_thickness(x_edges, h, threshold: float, method: str = FRONT_EDGE):
+    """The front x_f [m] of deposit thicknesses ``h`` [m] (the one definition, :data:`FRONT_DEFINITION`).
+
+    Parameters
+    ----------
+    x_edges : array (nx + 1,)
+        Increasing x of the column edges [m].
+    h : array (..., nx)
+        Deposit thickness per column (:func:`deposit_thickness`), any leading dimensions (time).
+    threshold : float
+        Thickness [m] a column must exceed.
+    method : {"edge", "linear"}
+        ``"edge"`` (the front): the right edge ``x_edges[i + 1]`` of the furthest column ``i``
+        with ``h > threshold``. Its resolution is one column width: for a thickness decreasing
+        with x the point where it falls through the threshold lies within ``dx`` of that edge
+        (within ``dx/2`` when h is linear there), so fronts are quantised by ``dx``.
+        ``"linear"``: a sub-cell estimate for comparing resolutions, the point between the
+        centres of column ``i`` and ``i + 1`` where the linear interpolant of h equals the
+        threshold (exact for a linear thickness); the right edge when ``i`` is the last column.
+
+    Returns
+    -------
+    float or ndarray
+        Shape ``h.shape[:-1]``; ``nan`` where no column exceeds the threshold.
+
+    Examples
+    --------
+    >>> front_from_thickness([0.0, 0.1, 0.2, 0.3], [0.05, 0.03, 0.0], 0.02)
+    0.2
+    >>> round(front_from_thickness([0.0, 0.1, 0.2, 0.3], [0.05, 0.03, 0.0], 0.02, "linear"), 6)
+    0.183333
+    """
+    if method not in FRONT_METHODS:
+        raise ValueError(f"front method must be one of {FRONT_METHODS}, got {method!r}")
+    edges = np.asarray(x_edges, dtype=float)
+    hv = np.asarray(h, dtype=float)
+    nx = hv.shape[-1]
+    if edges.shape != (nx + 1,):
+        raise ValueError(f"x_edges: shape {edges.shape}, expected ({nx + 1},) for {nx} columns")
+    flat = hv.reshape(-1, nx)
+    above = flat > threshold  # NaN compares False
+    has = above.any(axis=1)
+    last = nx - 1 - np.argmax(above[:, ::-1], axis=1)
+    front = edges[last + 1].copy()
+    if method == FRONT_LINEAR:
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        rows = np.flatnonzero(has & (last < nx - 1))
+        i = last[rows]
+        h0, h1 = flat[rows, i], flat[rows, i + 1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            interp = centres[i] + (h0 - threshold) / (h0 - h1) * (centres[i + 1] - centres[i])
+        front[rows] = np.where(np.isfinite(interp), interp, front[rows])
+    front[~has] = np.nan
+    front = front.reshape(hv.shape[:-1])
+    return float(front) if front.ndim == 0 else front
+
+
+def front_position(grid: Grid, phi, phi_max: float, threshold: float, method: str = FRONT_EDGE) -> float:
+    """The front [m] of a state (:func:`front_from_thickness` of :func:`deposit_thickness`):
+    the right edge of the furthest column where the deposit thickness > threshold [m]; ``nan``
+    if no column qualifies or if the grid is periodic in x (a front has no meaning there)."""
     if grid.periodic_x:
         return float("nan")
-    h = deposit_thickness(grid, phi, phi_max)
-    cols = np.flatnonzero(h > threshold)
-    return float(grid.xf[cols[-1] + 1]) if cols.size else float("nan")
+    return front_from_thickness(grid.xf, deposit_thickness(grid, phi, phi_max), threshold, method)
 
 
 @dataclass

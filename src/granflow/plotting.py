@@ -82,12 +82,13 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
     """Two panels: leading-order growth lambda/k^2 against direction, and finite-k growth against k
     for the most unstable direction and a few others (``granflow stability dispersion --plot``)."""
     plt = _pyplot()
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     a.plot(np.degrees(lead.thetas), np.asarray(lead.growths) / lead.scale)
     a.axhline(0.0, color="k", lw=0.5)
     a.axvline(np.degrees(lead.theta), color="tab:red", ls=":", label=f"max at {np.degrees(lead.theta):.1f} deg")
     a.set_xlabel("wave-vector direction theta [deg]")
-    a.set_ylabel(f"leading-order (lambda/k^2) / (eta/(phi rho_s)),  scale = {lead.scale:.3g} m^2/s")
+    a.set_ylabel("leading-order growth (lambda/k^2) / scale [-]")
+    a.set_title(f"scale = eta/(phi rho_s) = {lead.scale:.3g} m^2/s", fontsize="small")
     a.legend(fontsize="small")
     g = curve.as_array()
     k = np.asarray(curve.k)
@@ -107,6 +108,157 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
     return Path(path)
 
 
+#: Relative speed levels of the snapshot contours (fractions of the record's largest grain speed).
+SPEED_LEVEL_FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
+SPEED_CONTOUR_GID = "speed"
+
+
+def rest_speed_of(ds) -> float:
+    """The run's rest speed (global attribute ``rest_speed``, else ``output.rest_speed`` or its
+    default 10 eps Lz from ``config_effective``) [speed units]: grain speeds below it are noise
+    for the figures, as for the rest criterion of the run."""
+    import tomllib
+
+    if "rest_speed" in ds.attrs:
+        return float(ds.attrs["rest_speed"])
+    try:
+        cfg = tomllib.loads(str(ds.attrs.get("config_effective", "")))
+        rest = cfg.get("output", {}).get("rest_speed")
+        if rest is not None:
+            return float(rest)
+        return 10.0 * float(cfg["numerics"]["eps"]) * float(cfg["grid"]["Lz"])
+    except (tomllib.TOMLDecodeError, KeyError, TypeError, ValueError):
+        return 0.0
+
+
+def grain_cells(ds, index: int | None = None):
+    """Boolean mask over (time, x, z) (or (x, z) for one record) of the cells holding grains,
+    phi >= phi_c (the ambient below phi_c is air, whose velocity is not grain motion); None
+    without a phi variable."""
+    if "phi" not in ds:
+        return None
+    phi = ds["phi"].transpose("time", "x", "z")
+    phi_c = free_surface_level(ds)
+    mask = np.asarray(phi.values, dtype=float) >= phi_c
+    return mask if index is None else mask[index]
+
+
+def speed_contours(ax, ds, index: int):
+    """Labelled contours of the grain speed |u| of record ``index`` (cells with phi >= phi_c
+    only), at :data:`SPEED_LEVEL_FRACTIONS` of its largest value, each level above the run's rest
+    speed; nothing where the grains are at rest (a static layer's 1e-12 m/s is not drawn).
+    Returns the ContourSet or None."""
+    speed = np.asarray(run_field(ds, SPEED).values[index], dtype=float)
+    finite = speed[np.isfinite(speed)]
+    if finite.size == 0:
+        return None
+    top = float(finite.max())
+    floor = rest_speed_of(ds)
+    levels = [f * top for f in SPEED_LEVEL_FRACTIONS if f * top > floor and f * top > 0.0]
+    if not levels:
+        return None
+    cs = ax.contour(ds["x"].values, ds["z"].values, np.ma.masked_invalid(speed).T, levels=levels,
+                    colors="k", linewidths=0.5)
+    cs.set_gid(SPEED_CONTOUR_GID)
+    ax.clabel(cs, fmt=lambda v: f"{v:.2g}", fontsize="xx-small", inline=True)
+    return cs
+
+
+AT_REST_KE = 1e-20
+"""Kinetic energies below this [J m-1] are drawn as "at rest", not as a flat line at 1e-30."""
+AT_REST_DECADES = 1e3
+MAX_EQUAL_ASPECT = 4.0
+"""Snapshots keep x and z to scale unless the box is more than this much taller than wide (or
+wider than tall): the 4 x 22 inclined layer was a sliver."""
+
+
+def equal_aspect(ds) -> bool:
+    x, z = ds["x"].values, ds["z"].values
+    if x.size < 2 or z.size < 2:
+        return False
+    ratio = (z[-1] - z[0] + (z[1] - z[0])) / (x[-1] - x[0] + (x[1] - x[0]))
+    return 1.0 / MAX_EQUAL_ASPECT <= ratio <= MAX_EQUAL_ASPECT
+
+
+def case_figures(nc_path: str | Path, summary: dict, outdir: str | Path) -> list[Path]:
+    """The figure a referee asks of each verification case, from ``summary.json`` (and
+    output.nc): ``basal_pressure.png`` (defluidisation_column: basal p_f against the Fourier
+    series), ``profile.png`` (inclined_layer: u(z) against Bagnold, u_s(t)), ``relaxation.png``
+    (sheared_layer: phi(t) against its reference). Other cases: none."""
+    case = summary.get("case")
+    d = summary.get("case_diagnostics") or {}
+    outdir = Path(outdir)
+    plt = _pyplot()
+    if case == "defluidisation_column" and d.get("basal_record"):
+        rec = d["basal_record"]
+        t = np.asarray(rec["t_s"], dtype=float)
+        pf, series = np.asarray(rec["p_f_Pa"], dtype=float), np.asarray(rec["series_Pa"], dtype=float)
+        fig, (a, b) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, constrained_layout=True)
+        a.plot(t, series, "k-", label="Fourier series (rigid column)")
+        a.plot(t, pf, "o", color="tab:blue", ms=4, label=f"granflow, bottom cell (z = {rec['z_m']:.3g} m)")
+        a.set_ylabel("basal pore pressure p_f [Pa]")
+        a.legend(fontsize="small")
+        a.set_title(f"defluidisation: half-life {d.get('half_life_s') or float('nan'):.4g} s, series "
+                    f"{d.get('series_half_life_s') or float('nan'):.4g} s (tau_1 = {d.get('tau_1_s', float('nan')):.3g} s)",
+                    fontsize="small")
+        amp = float(d.get("p_f0_base_Pa") or 1.0)
+        b.plot(t, (pf - series) / amp, "o-", color="tab:blue", ms=3)
+        b.axhline(0.0, color="k", lw=0.5)
+        b.set_xlabel("t [s]")
+        b.set_ylabel("(p_f - series) / p_f0 [-]")
+        path = outdir / "basal_pressure.png"
+    elif case == "inclined_layer" and d.get("u_surface_record"):
+        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+        import xarray as xr
+
+        with xr.open_dataset(nc_path) as ds:
+            u = run_field(ds.load(), "u").isel(time=-1).mean("x", skipna=True)
+            z = ds["z"].values
+        a.plot(u.values, z, "o", color="tab:blue", ms=4, label="granflow (grain cells, mean over x)")
+        if d.get("u_surface_bagnold_m_s") is not None:
+            h = float(d["h_m"])
+            zz = np.linspace(0.0, h, 200)
+            a.plot(d["u_surface_bagnold_m_s"] * (1.0 - (1.0 - zz / h) ** 1.5), zz, "k-", label="Bagnold")
+        a.set_xlabel("u [m s-1]")
+        a.set_ylabel("z [m]")
+        a.legend(fontsize="small")
+        a.set_title("velocity profile at the last record", fontsize="small")
+        rec = d["u_surface_record"]
+        b.plot(rec["t_s"], rec["u_m_s"], "-", color="tab:blue", label="surface speed u_s")
+        if d.get("u_surface_bagnold_m_s") is not None:
+            b.axhline(d["u_surface_bagnold_m_s"], color="k", ls="--", label="Bagnold u_s")
+        b.set_xlabel("t [s]")
+        b.set_ylabel("u_s [m s-1]")
+        b.legend(fontsize="small")
+        b.set_title(f"u_s error {100 * (d.get('u_surface_rel_error') or float('nan')):+.2f} %", fontsize="small")
+        path = outdir / "profile.png"
+    elif case == "sheared_layer" and d.get("phi_record"):
+        rec = d["phi_record"]
+        fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+        ax.plot(rec["t_s"], rec["reference"], "k-", label=str(d.get("reference", "reference")))
+        ax.plot(rec["t_s"], rec["phi"], "o", color="tab:blue", ms=4, label="granflow")
+        ax.axhline(d.get("phi_eq", float("nan")), color="k", ls=":", lw=0.8, label="phi_eq(I)")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("packing fraction phi [-]")
+        ax.legend(fontsize="small")
+        ax.set_title(f"homogeneous shear: max error {d.get('max_error_rel') or float('nan'):.2e} "
+                     "of |phi0 - phi_eq|", fontsize="small")
+        path = outdir / "relaxation.png"
+    else:
+        return []
+    fig.savefig(path, dpi=FIGURE_DPI)
+    plt.close(fig)
+    return [path]
+
+
+def units_of(ds, name: str, default: str) -> str:
+    """The ``units`` attribute of ``ds[name]`` (the case's units: H0, sqrt(H0/g) for a
+    dimensionless case), else ``default``."""
+    if name in ds.variables:
+        return str(ds[name].attrs.get("units", default))
+    return default
+
+
 def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     """Figures of a ``granflow run`` output file: ``snapshots.png`` (phi, and p_f when non-zero,
     at the first, middle and last records, with the granular speed), ``front.png`` (front
@@ -122,6 +274,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     if n == 0:
         return []
     picks = sorted({0, n // 2, n - 1})
+    lu, tu = units_of(ds, "x", "m"), units_of(ds, "time", "s")
     has_pf = "p_f" in ds and float(abs(ds["p_f"]).max()) > 0
     rows = 2 if has_pf else 1
     x, z = ds["x"].values, ds["z"].values
@@ -133,21 +286,22 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         m = ax.pcolormesh(x, z, snap["phi"].values.T, vmin=0.0, vmax=float(ds.attrs.get("phi_max", 0.6)),
                           cmap="YlOrBr", shading="auto")
         if "u" in snap and "w" in snap:
-            speed = np.hypot(snap["u"].values, snap["w"].values).T
-            if speed.max() > 0:
-                ax.contour(x, z, speed, levels=4, colors="k", linewidths=0.5)
-        ax.set_aspect("equal")
-        ax.set_title(f"phi, t = {float(snap['time']):.3g} s (contours: speed)", fontsize="small")
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("z [m]")
+            speed_contours(ax, ds, i)
+        draw_front(ax, ds, i)
+        ax.set_aspect("equal" if equal_aspect(ds) else "auto")
+        ax.set_title(f"phi, t = {float(snap['time']):.3g} {tu}", fontsize="small")
+        ax.set_xlabel(f"x [{lu}]")
+        ax.set_ylabel(f"z [{lu}]")
         fig.colorbar(m, ax=ax, shrink=0.8)
         if has_pf:
             ax = axes[1, k]
             m = ax.pcolormesh(x, z, snap["p_f"].values.T, cmap="viridis", shading="auto")
-            ax.set_aspect("equal")
-            ax.set_title(f"p_f [Pa], t = {float(snap['time']):.3g} s", fontsize="small")
-            ax.set_xlabel("x [m]")
+            ax.set_aspect("equal" if equal_aspect(ds) else "auto")
+            ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
+            ax.set_xlabel(f"x [{lu}]")
             fig.colorbar(m, ax=ax, shrink=0.8)
+    fig.suptitle(f"packing phi; labelled contours: grain speed [{units_of(ds, 'u', 'm s-1')}] where "
+                 f"phi >= {free_surface_level(ds):g}, above the rest speed; dashed: front x_f", fontsize="small")
     snap_path = outdir / "snapshots.png"
     fig.savefig(snap_path, dpi=100)
     plt.close(fig)
@@ -156,12 +310,23 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     t = ds["time"].values
     if "x_front" in ds:
         ax.plot(t, ds["x_front"].values, "k-", label="front x_f")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("front position [m]")
+    ax.set_xlabel(f"t [{tu}]")
+    ax.set_ylabel(f"front position [{lu}]")
     if "kinetic_energy" in ds:
         ax2 = ax.twinx()
-        ax2.plot(t, ds["kinetic_energy"].values, "tab:red", label="kinetic energy")
-        ax2.set_ylabel("kinetic energy [J/m]", color="tab:red")
+        ke = np.asarray(ds["kinetic_energy"].values, dtype=float)
+        ke_unit = units_of(ds, "kinetic_energy", "J m-1")
+        positive = ke[np.isfinite(ke) & (ke > 0)]
+        if not positive.size or positive.max() < AT_REST_KE:  # no flat line at 1e-30
+            ax2.set_yticks([])
+            ax2.text(0.5, 0.9, f"grains at rest: kinetic energy <= {np.nanmax(ke):.1e} {ke_unit}",
+                     transform=ax2.transAxes, ha="center", va="top", color="tab:red", fontsize="small",
+                     bbox={"facecolor": "white", "edgecolor": "none"}, gid="at_rest")
+        else:
+            ax2.plot(t, ke, "tab:red", label="kinetic energy")
+            if positive.max() > AT_REST_DECADES * positive.min():
+                ax2.set_yscale("log")  # from release to rest the energy spans many decades
+        ax2.set_ylabel(f"kinetic energy [{ke_unit}]", color="tab:red")
     ax.set_title(f"{ds.attrs.get('case', '')} ({ds.attrs.get('closure', '')})", fontsize="small")
     front_path = outdir / "front.png"
     fig.savefig(front_path, dpi=100)
@@ -172,8 +337,8 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         for k, xp in enumerate(ds["x_probe"].values):
             line, = ax.plot(t, ds["probe_p_f"].values[:, k], "-", label=f"p_f, x = {xp:.3g} m")
             ax.plot(t, ds["probe_p"].values[:, k], "--", color=line.get_color(), label=f"p, x = {xp:.3g} m")
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("basal pressure [Pa]")
+        ax.set_xlabel(f"t [{tu}]")
+        ax.set_ylabel(f"basal pressure [{units_of(ds, 'probe_p_f', 'Pa')}]")
         ax.legend(fontsize="small")
         ax.set_title("basal probes: pore pressure p_f (solid), granular pressure p (dashed)", fontsize="small")
         probes_path = outdir / "probes.png"
@@ -193,6 +358,8 @@ SPEED = "speed"
 #: Colour maps: packing, signed velocities (centred on zero), everything else.
 PHI_CMAP, SIGNED_CMAP, DEFAULT_CMAP = "YlOrBr", "RdBu_r", "viridis"
 SIGNED_VARIABLES = ("u", "w")
+#: Grain quantities, blanked in the ambient (phi < phi_c) by :func:`run_field`.
+GRAIN_VARIABLES = ("u", "w", "speed", "S")
 #: Frames per second of ``--animate`` GIFs and resolution of the figures.
 GIF_FPS = 5
 FIGURE_DPI = 100
@@ -211,6 +378,8 @@ def free_surface_level(ds) -> float:
 
     from granflow.model import AmbientParams
 
+    if "phi_c" in ds.attrs:  # written by granflow run
+        return float(ds.attrs["phi_c"])
     try:
         config = tomllib.loads(str(ds.attrs.get("config_effective", "")))
         return float(config["numerics"]["ambient"]["phi_c"])
@@ -220,7 +389,9 @@ def free_surface_level(ds) -> float:
 
 def run_field(ds, var: str):
     """The field ``var`` of a run dataset over (time, x, z), with ``units`` and ``long_name``
-    (``"speed"``: sqrt(u^2 + w^2) of the cell-centred velocities, in the units of ``u``).
+    (``"speed"``: sqrt(u^2 + w^2) of the cell-centred velocities, in the units of ``u``). The
+    grain quantities (:data:`GRAIN_VARIABLES`) are NaN in the ambient cells (phi < phi_c), whose
+    velocity is the air's, not the grains'.
 
     Raises
     ------
@@ -230,11 +401,18 @@ def run_field(ds, var: str):
     if var == SPEED:
         u, w = ds["u"], ds["w"]
         field = np.hypot(u, w)
-        field.attrs = {"units": u.attrs.get("units", ""), "long_name": "granular speed |u|"}
+        field.attrs = {"units": u.attrs.get("units", ""), "long_name": "grain speed |u|"}
     else:
         field = ds[var]
+    field = field.transpose("time", "x", "z")
+    mask = grain_cells(ds) if var in GRAIN_VARIABLES else None
+    if mask is not None:  # grain quantities only where there are grains (the ambient is air)
+        attrs = dict(field.attrs)
+        field = field.where(mask)
+        attrs["long_name"] = f"{attrs.get('long_name', var)}, grains only (phi >= {free_surface_level(ds):g})"
+        field.attrs = attrs
     field.name = var
-    return field.transpose("time", "x", "z")
+    return field
 
 
 def field_label(field) -> str:
@@ -268,7 +446,8 @@ def _cmap(var: str) -> str:
 def _title(ds, var: str, index: int) -> str:
     n = ds.sizes["time"]
     t = float(ds["time"].values[index])
-    return f"{ds.attrs.get('case', 'granflow')}: {var}, t = {t:.4g} s (record {index + 1}/{n})"
+    return (f"{ds.attrs.get('case', 'granflow')}: {var}, t = {t:.4g} {units_of(ds, 'time', 's')} "
+            f"(record {index + 1}/{n})")
 
 
 def _surface(ax, ds, index: int, phi_c: float):
@@ -280,6 +459,33 @@ def _surface(ax, ds, index: int, phi_c: float):
         return None
     return ax.contour(ds["x"].values, ds["z"].values, phi.T, levels=[phi_c], colors="k",
                       linewidths=1.0)
+
+
+FRONT_GID = "front"
+"""``gid`` of the front marker drawn on snapshots (the ``x_front`` of the run)."""
+
+
+def front_at(ds, index: int) -> float:
+    """The front of record ``index`` [m]: the run's ``x_front`` if written, else
+    ``ds.granflow.front_position()`` -- the same definition (docs/cases.md, "Front position")."""
+    if "x_front" in ds:
+        return float(ds["x_front"].values[index])
+    try:
+        import granflow.output  # noqa: F401 - registers the accessor
+
+        return float(ds.granflow.front_position().values[index])
+    except Exception:  # noqa: BLE001 - no phi or no phi_max: no front to show
+        return float("nan")
+
+
+def draw_front(ax, ds, index: int):
+    """Mark the front x_f of record ``index`` with a dashed vertical line (gid ``front``); None if
+    there is no front."""
+    x_f = front_at(ds, index)
+    if not np.isfinite(x_f):
+        return None
+    return ax.axvline(x_f, color="tab:blue", ls="--", lw=1.0, gid=FRONT_GID,
+                      label=f"front x_f = {x_f:.4g}")
 
 
 def _figure(ds):
@@ -319,12 +525,13 @@ def snapshot_axes(ax, ds, var: str, index: int, limits: tuple[float, float] | No
     mesh = ax.pcolormesh(x, z, np.asarray(field.values[index], dtype=float).T, vmin=vmin, vmax=vmax,
                          cmap=_cmap(var), shading="nearest")
     contour = _surface(ax, ds, index, free_surface_level(ds))
+    draw_front(ax, ds, index)
     bar = ax.figure.colorbar(mesh, ax=ax, location="bottom", shrink=0.9, aspect=40)
     bar.set_label(field_label(field))
     ax.set_aspect("equal")
     ax.set_xlabel(f"x [{ds['x'].attrs.get('units', 'm')}]")
     ax.set_ylabel(f"z [{ds['z'].attrs.get('units', 'm')}]")
-    ax.set_title(_title(ds, var, index) + f"; line: phi = {free_surface_level(ds):g}",
+    ax.set_title(_title(ds, var, index) + f"; line: phi = {free_surface_level(ds):g}, dashed: front",
                  fontsize="small")
     return mesh, contour, bar
 
@@ -357,7 +564,10 @@ def animate_run(ds, var: str, path: str | Path, fps: int = GIF_FPS) -> Path:
         if state["contour"] is not None:
             state["contour"].remove()
         state["contour"] = _surface(ax, ds, i, phi_c)
-        ax.set_title(_title(ds, var, i) + f"; line: phi = {phi_c:g}", fontsize="small")
+        for line in [ln for ln in ax.lines if ln.get_gid() == FRONT_GID]:
+            line.remove()
+        draw_front(ax, ds, i)
+        ax.set_title(_title(ds, var, i) + f"; line: phi = {phi_c:g}, dashed: front", fontsize="small")
         return (mesh,)
 
     anim = FuncAnimation(fig, update, frames=ds.sizes["time"], blit=False, repeat=False)

@@ -23,8 +23,10 @@ import csv
 import io
 import itertools
 import json
+import time
 import traceback
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -307,9 +309,48 @@ def _write_table(path: Path, rows: list[dict[str, Any]], override_keys: list[str
         fh.write(buf.getvalue())
 
 
+@dataclass(frozen=True)
+class SweepProgress:
+    """What a sweep's progress display gets: after each member finishes (``member_id``,
+    ``status``) and every :data:`POLL_S` seconds meanwhile (``member_id`` None), with the
+    running members' own progress (``running``: member id -> ``{"t", "stop_time", ...}``)."""
+
+    member_id: str | None
+    status: str | None
+    done: int
+    total: int
+    elapsed_s: float
+    running: dict[str, dict[str, Any]]
+    summary: dict[str, Any]
+
+
+POLL_S = 1.0
+"""Seconds between progress reports while members run."""
+WORKER_CLOSE_TIMEOUT_S = 60.0
+"""Time a worker process gets to exit at the end (distributed's default, 5 s, is shorter than a
+worker that imported the solver needs on a loaded machine: it was killed, with a warning)."""
+MEMBER_PROGRESS_FILE = "progress.json"
+
+
+def _close_cluster(cluster) -> None:
+    """Close the local cluster's workers with a generous timeout, then the cluster: no
+    "Worker process still alive ... killing" warnings."""
+    import asyncio
+
+    async def stop_workers():
+        await asyncio.gather(*(w.close(timeout=WORKER_CLOSE_TIMEOUT_S) for w in list(cluster.workers.values())),
+                             return_exceptions=True)
+
+    try:
+        cluster.sync(stop_workers)
+    finally:
+        cluster.close()
+
+
 def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
               outdir: str | Path, scheduler: str | None = None,
-              workers: int | None = None, started: Callable[[], None] | None = None) -> Path:
+              workers: int | None = None, started: Callable[[], None] | None = None,
+              progress: Callable[[SweepProgress], None] | None = None) -> Path:
     """Run every member of ``spec`` with ``run_member`` on a Dask cluster; return the CSV table.
 
     Parameters
@@ -329,6 +370,8 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
     started : callable, optional
         Called once the cluster is reached (before anything is written), e.g. to announce the
         sweep: an unreachable scheduler raises ``OSError`` before it, with nothing written.
+    progress : callable, optional
+        ``progress(SweepProgress)``: at the start, after each member and every second.
 
     Returns
     -------
@@ -345,7 +388,7 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
     if workers is not None and workers < 1:
         raise GranflowInputError(f"workers must be >= 1, got {workers}")
     try:
-        from distributed import Client, LocalCluster, as_completed
+        from distributed import Client, LocalCluster, wait
     except ImportError as err:
         raise ImportError("sweeps need Dask: pip install 'granflow[sweep]'") from err
 
@@ -363,6 +406,48 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
             row.update(status=STATUS_OK, cached=True, summary=flatten_scalars(summary))
             continue
         todo.append((member_id, overrides, mdir))
+
+    t_start = time.monotonic()
+    total = len(members)
+
+    def member_progress() -> dict[str, dict[str, Any]]:
+        """The running members' progress files (simulated time / stop time)."""
+        out_p = {}
+        for mid, _, mdir in todo:
+            path = Path(mdir) / MEMBER_PROGRESS_FILE
+            if mid in finished_ids or not path.is_file():
+                continue
+            try:
+                out_p[mid] = json.loads(path.read_text())
+            except (OSError, ValueError):
+                continue
+        return out_p
+
+    finished_ids: set[str] = set()
+
+    def report(member_id: str | None, status: str | None = None, done: int | None = None) -> None:
+        if progress is None:
+            return
+        if member_id is not None:
+            finished_ids.add(member_id)
+        count = done if done is not None else len(finished_ids) + (total - len(todo))
+        progress(SweepProgress(member_id=member_id, status=status, done=count, total=total,
+                               elapsed_s=time.monotonic() - t_start, running=member_progress(),
+                               summary=rows[member_id].get("summary", {}) if member_id else {}))
+
+    def _collect(future, mid: str) -> str:
+        try:
+            status, result = future.result()
+        except Exception as err:  # noqa: BLE001 - e.g. a worker died (KilledWorker)
+            status = STATUS_FAILED
+            result = {"error": f"{type(err).__name__}: {err}",
+                      "traceback": traceback.format_exc()}
+            write_json_atomic(out / mid / ERROR_FILE, result)
+        if status == STATUS_OK:
+            rows[mid].update(status=status, summary=flatten_scalars(result))
+        else:
+            rows[mid].update(status=status, summary={}, error=result["error"])
+        return status
 
     cluster = client = None
     try:
@@ -385,25 +470,29 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         if tasks:
             futures = {client.submit(run_member_task, run_member, config, mdir, pure=False): mid
                        for mid, config, mdir in tasks}
-            for future in as_completed(futures):
-                mid = futures[future]
+            pending = set(futures)
+            done_count = len(members) - len(todo)
+            report(None)
+            while pending:
                 try:
-                    status, result = future.result()
-                except Exception as err:  # noqa: BLE001 - e.g. a worker died (KilledWorker)
-                    status = STATUS_FAILED
-                    result = {"error": f"{type(err).__name__}: {err}",
-                              "traceback": traceback.format_exc()}
-                    write_json_atomic(out / mid / ERROR_FILE, result)
-                if status == STATUS_OK:
-                    rows[mid].update(status=status, summary=flatten_scalars(result))
-                else:
-                    rows[mid].update(status=status, summary={}, error=result["error"])
+                    finished, pending = wait(pending, timeout=POLL_S, return_when="FIRST_COMPLETED")
+                except TimeoutError:  # none finished within POLL_S: report the running ones
+                    finished = set()
+                for future in finished:
+                    mid = futures[future]
+                    status = _collect(future, mid)
+                    done_count += 1
+                    report(mid, status, done_count)
+                if not finished:
+                    report(None, done=done_count)
     finally:
         if client is not None:
             client.close()
         if cluster is not None:
-            cluster.close()
+            _close_cluster(cluster)
 
     table = out / TABLE_FILE
     _write_table(table, [rows[mid] for mid, _ in members], list(spec.parameters))
     return table
+
+

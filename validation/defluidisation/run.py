@@ -1,6 +1,6 @@
 """Defluidising column: rigid bed, implicit pore pressure against the Fourier series.
 
-Verification item 1 of NUMERICS.md §11 (MODEL.md §7): a static column of glass beads
+Verification item 1 of NUMERICS.md §11 (docs/model.md §7): a static column of glass beads
 (d = 70 um, phi = phi_max = 0.6, H = 0.1 m) with an impermeable base and an open top, initial
 pore pressure 0.9 x lithostatic (0.9 phi rho_s g (H - z)) or uniform (0.9 phi rho_s g H). The
 basal pressure (bottom cell centre, z = dz/2) is compared with the series of

@@ -1,6 +1,6 @@
 """Energy budget of the column collapse under Δx and Δt refinement (issue 3 items 7 and 9f).
 
-MODEL.md §5 (paper Theorem th1): ``dE/dt + D = int phi rho_s g . u`` with
+docs/model.md §5 (paper Theorem th1): ``dE/dt + D = int phi rho_s g . u`` with
 ``E = 1/2 int phi rho_s |u|^2 + int (1 - phi) H(p_f)``. The discrete budget
 (:class:`granflow.diagnostics.EnergyBudget`) reports
 

@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import load_case
 
@@ -219,9 +220,9 @@ def interpolated_front(r: dict, threshold: float) -> float:
     """x [m] where the final deposit thickness falls through ``threshold``, interpolated linearly
     between the cell centres on either side of the last column above it (a sub-cell front, so
     that ratios are not quantised by dx)."""
-    h, x = np.asarray(r["h_final_m"]), np.asarray(r["x_m"])
-    c = int(np.flatnonzero(h > threshold)[-1])
-    return float(x[c] + r["dx_m"] * (h[c] - threshold) / (h[c] - h[c + 1]))
+    h, x = np.asarray(r["h_final_m"], dtype=float), np.asarray(r["x_m"], dtype=float)
+    edges = np.concatenate([x - 0.5 * r["dx_m"], x[-1:] + 0.5 * r["dx_m"]])
+    return dg.front_from_thickness(edges, h, threshold, dg.FRONT_LINEAR)  # the one definition's sub-cell method
 
 
 def sensitivity(runs: dict) -> dict:

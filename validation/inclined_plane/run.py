@@ -1,6 +1,6 @@
 """Steady flow down an infinite incline: the solver against the exact Bagnold solution.
 
-Verification items 9c and 9d of issue 3 (MODEL.md §7, NUMERICS.md §11 item 3). A granular layer
+Verification items 9c and 9d of issue 3 (docs/model.md §7, NUMERICS.md §11 item 3). A granular layer
 of thickness h0 = 1 cm on a grid periodic in x (4 columns of 25 cm: the flow is uniform, the x
 extent only sets the advective CFL), no-slip base, pressureless ambient above (2-3 cells), gravity
 g (sin theta, -cos theta), mu(I) closure with its dilatancy law (mu1 = tan 21 deg, mu2 = tan 33 deg,

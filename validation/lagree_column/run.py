@@ -21,7 +21,7 @@ for a front only if the creeping one-cell tongue, h = (phi_c/phi_max) dz, is thi
 smallest h the front reads (README). L_inf is the front at the end of the run, which stops once the
 rms granular speed has stayed below 0.01 sqrt(g H0) (``output.rest_speed``) for one time unit
 (``time.stop_at_rest``) or at t = 8. Normalised run-out (L_inf - L0)/L0, L0 = 1/a.
-Published planar scalings (MODEL.md §7): lambda1 a for a <~ 3 (lambda1 = 1.2-2.2), lambda2 a^(2/3)
+Published planar scalings (docs/model.md §7): lambda1 a for a <~ 3 (lambda1 = 1.2-2.2), lambda2 a^(2/3)
 above (lambda2 = 1.9-3.9); Lube et al. 2005, Lajeunesse et al. 2005; Balmforth & Kerswell 2005
 exponent 0.9 +- 0.1.
 
@@ -49,6 +49,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
+from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import CaseConfig
 from granflow.verification.convergence import richardson  # noqa: F401  (dry_runout, fluidised_vs_dry use LAG.richardson)
@@ -128,15 +129,15 @@ def case_config(a: float, model: str, n: int, box: str = "reduced", stop_time: f
 
 
 def linear_front(x, h, threshold: float) -> float:
-    """x where the piecewise-linear interpolant of h(x) (cell centres ``x``) last falls below
-    ``threshold`` [H0]; nan if h never exceeds it; the last centre if h does not fall below it."""
-    above = np.flatnonzero(np.asarray(h) > threshold)
-    if above.size == 0:
-        return float("nan")
-    i = int(above[-1])
-    if i == len(x) - 1:
-        return float(x[i])
-    return float(x[i] + (h[i] - threshold) / (h[i] - h[i + 1]) * (x[i + 1] - x[i]))
+    """Sub-cell front [H0]: granflow.diagnostics.front_from_thickness(method="linear") -- where the
+    piecewise-linear interpolant of h(x) (cell centres ``x``, uniform) falls through
+    ``threshold`` after the last column above it; nan if h never exceeds it; the right edge of the
+    box if the last column is above it. The front itself (summary.json, ``x_f_cell_edge``) is the
+    same function's ``"edge"`` method."""
+    x = np.asarray(x, dtype=float)
+    dx = x[1] - x[0]
+    edges = np.concatenate([x - 0.5 * dx, x[-1:] + 0.5 * dx])
+    return dg.front_from_thickness(edges, np.asarray(h, dtype=float), threshold, dg.FRONT_LINEAR)
 
 
 def toe_front(x, h, window=TOE_WINDOW) -> float:

@@ -1,7 +1,7 @@
 """Homogeneous sheared layer: the AP dilatancy step against the exact logistic solution (DP) and a
 tight Radau integration (every other paper closure).
 
-Verification item 9a of issue 3 (MODEL.md §7, NUMERICS.md §11 item 2 and §5.2). Under an imposed
+Verification item 9a of issue 3 (docs/model.md §7, NUMERICS.md §11 item 2 and §5.2). Under an imposed
 strain-rate norm |S| = 200 1/s and granular pressure p = 1000 Pa (d = 80 um, rho_s = 2500 kg/m^3,
 phi_max = 0.6, delta_phi = 0.2, c_I = 2: I = 0.0506, phi_eq = 0.5899), mass (paper eq. syst1b) and
 the dilatancy law (eq. syst4b) reduce to dphi/dt = -phi R(phi; p, |S|), R = Closure.div_rate. For
@@ -10,7 +10,7 @@ Drucker-Prager (delta = 25 deg) this is the logistic equation
     dphi/dt = beta phi (phi_eq - phi),   beta = 2 sin(delta) sqrt(p) / (c_I delta_phi d sqrt(rho_s)),
     phi(t) = phi_eq / (1 + (phi_eq/phi0 - 1) exp(-beta phi_eq t)),
 
-written again here from MODEL.md §7 (and compared with granflow.verification.sheared_layer). For
+written again here from docs/model.md §7 (and compared with granflow.verification.sheared_layer). For
 the other paper closures the reference is SciPy's Radau integration of the same ODE with
 rtol = 1e-11, atol = 1e-13 (checked against the logistic solution for DP).
 
@@ -67,7 +67,7 @@ ERROR_AXIS_CAP = 1e2          # errors above this are drawn at the cap (runs pas
 
 
 def logistic(t, phi0: float, closure) -> np.ndarray:
-    """Exact DP solution (module docstring), written from MODEL.md §7 [-]."""
+    """Exact DP solution (module docstring), written from docs/model.md §7 [-]."""
     m = closure.material
     beta = 2.0 * closure.sin_delta * math.sqrt(P) / (m.c_I * m.delta_phi * m.d * math.sqrt(m.rho_s))
     phi_eq = m.phi_max - m.delta_phi * m.c_I * m.d * S / math.sqrt(P / m.rho_s)

@@ -4,10 +4,10 @@ Barker et al. (2015, J. Fluid Mech. 779, 794-818) and Martin et al. (2017).
 
 Barker et al. (2015): incompressible mu(I) is linearly ill-posed (growth rate unbounded in the
 wavenumber) where 4 nu^2 - 4 nu + mu^2 (1 - nu/2)^2 > 0, nu = I mu'(I)/mu, i.e. outside a window
-I_low < I < I_high (MODEL.md §7; ``granflow stability window``); there, a simulation should show
+I_low < I < I_high (docs/model.md §7; ``granflow stability window``); there, a simulation should show
 features whose size follows the grid (shear bands one cell wide, |S| growing without bound,
 grid-scale oscillations of p). The paper's mu(I) closure with its dilatancy law is claimed well
-posed (Chupin & Dubois; MODEL.md §8).
+posed (Chupin & Dubois; docs/model.md §8).
 
 Data: the a = 1.42 runs of validation/lagree_column (levels 32, 64, 128; cells 5/n, box cut at
 Lz = 1.25; fields phi, u, w, p, |S| at t = 0.5, 1, 2), plus optional short runs at a finer level

@@ -49,6 +49,7 @@ from granflow.cases.preparation import (
     prepare,
     released_state,
 )
+from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import Simulation
@@ -125,6 +126,7 @@ def front_threshold(config: CaseConfig) -> float:
 
 @CASES.register("column_collapse", setup_model=ColumnCollapseSetup, check=check,
                 diagnostics=diagnostics, front_threshold=front_threshold,
+                headline=headlines.column_collapse, settles=True,
                 summary="rectangular column H0 x L0 against the west wall collapses and spreads")
 def setup(config: CaseConfig) -> Simulation:
     """Model, initial state and stop criteria of a column collapse.

@@ -53,6 +53,7 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
+from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import IterationInterval, Simulation, TimeInterval
@@ -219,6 +220,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
 
 
 @CASES.register(CASE, setup_model=DefluidisationSetup, check=check, diagnostics=diagnostics,
+                headline=headlines.defluidisation_column,
                 summary="initially fluidised static layer drains its gas; basal p_f vs Fourier series")
 def setup(config: CaseConfig) -> Simulation:
     """Model (with pore gas), initial state at rest with the over-pressure of ``setup.profile``,

@@ -59,6 +59,7 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
+from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.grid import Grid
@@ -293,6 +294,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
 
 
 @CASES.register(CASE, setup_model=InclinedLayerSetup, check=check, diagnostics=diagnostics,
+                headline=headlines.inclined_layer,
                 summary="uniform layer on an infinite incline (periodic x): steady Bagnold flow, dry or fluidised")
 def setup(config: CaseConfig) -> Simulation:
     """Periodic Model (tilted gravity, optional base injection), the layer at rest or with the

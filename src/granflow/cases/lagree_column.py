@@ -51,6 +51,7 @@ from pydantic import Field
 from granflow import diagnostics as dg
 from granflow.cases import common
 from granflow.cases.common import make_simulation, rectangle_fraction
+from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import (
     DEFAULT_GRAVITY,
@@ -301,6 +302,9 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
 
 
 @CASES.register("lagree_column", setup_model=LagreeColumnSetup, check=check, diagnostics=diagnostics,
+                headline=headlines.lagree_column, settles=True,
+                units={"length": "H0", "time": "sqrt(H0/g)", "speed": "sqrt(g H0)",
+                       "pressure": "rho g H0", "rate": "sqrt(g/H0)", "energy": "rho g H0^3"},
                 summary="dimensionless column collapse of Lagree, Staron & Popinet (2011), mu(I)")
 def setup(config: CaseConfig) -> Simulation:
     """Model, initial state (at rest, lithostatic pressure ``p = 1 - z`` in the column) and stop

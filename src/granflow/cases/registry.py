@@ -53,6 +53,18 @@ class Case:
         ``front_threshold(config) -> float``: the deposit thickness [m] that defines the front when
         ``output.front_threshold`` is not set -- a physical length, so that the run-out means the
         same at every resolution. None: one cell height.
+    headline : callable, optional
+        ``headline(summary) -> str``: the case's own result for the end-of-run line (a run-out, a
+        Bagnold error, a half-life error, ...), from the ``summary.json`` content. None: the
+        run-out.
+    settles : bool
+        The flow is expected to come to rest (collapses): a run that ends while still moving is
+        flagged in ``summary.json`` (``still_moving``, ``warnings``) and on the console.
+    units : dict
+        Units of the case's lengths, times, speeds and energies when they are not SI
+        (dimensionless cases): keys ``length``, ``time``, ``speed``, ``pressure``, ``rate``,
+        ``energy``; the summary, output.nc,
+        the console line and the figures use them.
     """
 
     name: str
@@ -62,6 +74,18 @@ class Case:
     check: Callable[[CaseConfig], Problems] = _no_problems
     diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] = _no_diagnostics
     front_threshold: Callable[[CaseConfig], float] | None = None
+    headline: Callable[[dict[str, Any]], str] | None = None
+    settles: bool = False
+    units: dict[str, str] | None = None
+
+    def unit(self, kind: str) -> str:
+        """The unit of ``kind`` (``length``, ``time``, ``speed``, ``energy``) in this case."""
+        return (self.units or {}).get(kind, SI_UNITS[kind])
+
+
+SI_UNITS = {"length": "m", "time": "s", "speed": "m s-1", "pressure": "Pa", "rate": "s-1",
+            "energy": "J m-1"}
+"""Units of the dimensional cases."""
 
 
 class CaseRegistry(Registry[Case]):
@@ -75,12 +99,15 @@ class CaseRegistry(Registry[Case]):
                  check: Callable[[CaseConfig], Problems] | None = None,
                  diagnostics: Callable[[Simulation, CaseConfig], dict[str, Any]] | None = None,
                  front_threshold: Callable[[CaseConfig], float] | None = None,
+                 headline: Callable[[dict[str, Any]], str] | None = None, settles: bool = False,
+                 units: dict[str, str] | None = None,
                  ) -> Callable[[Callable[[CaseConfig], Simulation]], Callable[[CaseConfig], Simulation]]:
         """Decorator registering ``setup`` as the case ``name``."""
 
         def deco(setup: Callable[[CaseConfig], Simulation]) -> Callable[[CaseConfig], Simulation]:
             self.add(name, Case(name, setup, setup_model, summary, check or _no_problems,
-                                diagnostics or _no_diagnostics, front_threshold))
+                                diagnostics or _no_diagnostics, front_threshold, headline, settles,
+                                units))
             return setup
 
         return deco

@@ -77,14 +77,18 @@ PROBE_SPECS = {
 """Time series at the basal probes (``output.probes_x``)."""
 SERIES_SPECS = {
     "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
-    "x_front": ("m", ("front position: right edge of the furthest column with deposit thickness "
-                      "above the threshold")),
+    "x_front": ("m", f"front position: {dg.FRONT_DEFINITION} (attribute front_threshold_m; resolution dx)"),
 }
+UNIT_KINDS = ("length", "time", "speed", "pressure", "rate", "energy")
+SI_KIND = {"m": "length", "s": "time", "m s-1": "speed", "Pa": "pressure", "s-1": "rate", "J m-1": "energy"}
+"""The SI units of the output and the kind of quantity each stands for (a dimensionless case
+replaces them: :attr:`granflow.cases.registry.Case.units`)."""
 UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
     "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
     "clipped_mass": "1 (fraction of the initial mass)", "limited_mass": "1 (fraction of the initial mass)", "phi_min": "1", "phi_max": "1",
-    "energy_residual_rel": "1 (of the released potential energy)", "energy": "J m-1",
+    "energy_residual_rel": "1 (of energy_residual.reference, the run's largest energy source; null if negligible)",
+    "energy": "J m-1",
     "wall_s": "s", "t_final": "s",
 }
 
@@ -111,6 +115,8 @@ class Progress:
     steps_per_s: float
     eta_s: float
     wall_s: float
+    warming_up: bool = False
+    """True until a step has been timed without the first one (which compiles the kernels)."""
 
 
 @dataclass(frozen=True)
@@ -149,8 +155,10 @@ class CaseRun:
                                          subdirs=(CHECKPOINT_DIR,))
         self.output_path = self.directory / OUTPUT_FILE
         if restart is None and self.output_path.exists() and not overwrite:
-            raise GranflowInputError(f"{self.output_path} exists; continue it with --restart "
-                                     f"{self.directory}, or replace it with --overwrite")
+            raise GranflowInputError(f"{self.output_path} exists (an earlier run); write this run elsewhere "
+                                     f"with --out DIR, replace it with --overwrite, or continue that run "
+                                     f"with --restart {self.directory} (only with its case file and --set "
+                                     f"options: the grid must be the same)")
         check_memory(config)
         self.sim: Simulation = self.case.setup(config)
         self.grid = self.sim.model.grid
@@ -190,35 +198,55 @@ class CaseRun:
             for old in self.checkpoints.steps():
                 self.checkpoints.path(old).unlink(missing_ok=True)
         self._session_t0 = (self.sim.state.t, time.perf_counter())
+        self._after_first: tuple[float, float, int] | None = None
+        """(t, wall, reports) at the end of the session's first step: the rate and ETA leave out
+        that step, which compiles the Numba kernels."""
         self.writer = self._open_writer(resume=restart is not None and self.output_path.exists())
 
     # --- output ---------------------------------------------------------------------------------
     def _declarations(self) -> tuple[dict, dict, dict]:
         g = self.grid
-        coords = {"x": (np.asarray(g.xc), {"units": "m", "long_name": "x of the cell centres",
+        unit = self.case_unit
+        length = unit("length")
+        coords = {"x": (np.asarray(g.xc), {"units": length, "long_name": "x of the cell centres",
                                           "axis": "X"}),
-                  "z": (np.asarray(g.zc), {"units": "m", "long_name": "height z of the cell centres",
-                                          "axis": "Z", "positive": "up"})}
+                  "z": (np.asarray(g.zc), {"units": length, "long_name": "height z of the cell centres",
+                                          "axis": "Z", "positive": "up",
+                                          **({"standard_name": "height"} if length == "m" else {})})}
         variables = {}
         for name in self.config.output.fields:
             units, long_name = FIELD_SPECS[name]
             attrs = {"phi_max": self.phi_max} if name == "phi" else None
-            variables[name] = VariableSpec(("time", "x", "z"), units, long_name, attrs=attrs)
+            variables[name] = VariableSpec(("time", "x", "z"), unit(SI_KIND.get(units, units)), long_name,
+                                           attrs=attrs)
         for name, (units, long_name) in SERIES_SPECS.items():
-            variables[name] = VariableSpec(("time",), units, long_name)
+            variables[name] = VariableSpec(("time",), unit(SI_KIND.get(units, units)), long_name)
         if self.probe_cells.size:
             coords[PROBE_DIM] = (self.grid.xc[self.probe_cells], {
-                "units": "m", "long_name": "x of the cell centre of each basal probe"})
+                "units": length, "long_name": "x of the cell centre of each basal probe"})
             for name, (units, long_name) in PROBE_SPECS.items():
-                variables[name] = VariableSpec(("time", PROBE_DIM), units, long_name)
+                variables[name] = VariableSpec(("time", PROBE_DIM), unit(SI_KIND.get(units, units)), long_name)
         attrs = {"case": self.config.case.name, "config_effective": self.config.to_toml(),
                  "overrides": " ".join(self.config.overrides), "phi_max": self.phi_max,
-                 "front_threshold_m": self.threshold, "closure": self.config.closure.name}
+                 "front_threshold_m": self.threshold, "closure": self.sim.model.closure.name,
+                 "rest_speed": self.rest_speed, "phi_c": self.sim.model.ambient.phi_c,
+                 **{f"{kind}_unit": unit(kind) for kind in UNIT_KINDS}}
+        if self.case.units:
+            attrs["units_note"] = (f"dimensionless case: lengths in {length}, times in {unit('time')}; "
+                                   "names ending in _m or _s keep those units")
         return coords, variables, attrs
+
+    def case_unit(self, kind: str) -> str:
+        """Unit of ``kind`` (``length``, ``time``, ``speed``, ``pressure``, ``rate``, ``energy``,
+        or an SI unit string, returned as is) in this case (:attr:`Case.units`)."""
+        if kind not in UNIT_KINDS:
+            return kind
+        return self.case.unit(kind)
 
     def _open_writer(self, resume: bool) -> NetCDFWriter:
         coords, variables, attrs = self._declarations()
-        kw = {"case_file": self.config.source_text, "title": f"granflow {self.config.case.name}"}
+        kw = {"case_file": self.config.source_text, "title": f"granflow {self.config.case.name}",
+              "time_units": self.case_unit("time")}
         if not resume:
             return NetCDFWriter(self.output_path, coords, variables, attrs, **kw)
         t = self.sim.state.t
@@ -313,14 +341,19 @@ class CaseRun:
             sim.stop_time = sim.state.t  # at rest long enough: done() is now true, status completed
             self.stopped_at_rest = True
         if self.progress is not None and sim.reports:
-            t0, w0 = self._session_t0
-            elapsed = time.perf_counter() - w0
+            now = time.perf_counter()
             n = len(sim.reports)
-            rate = (sim.state.t - t0) / elapsed if elapsed > 0 else 0.0
+            if self._after_first is None:  # the first step of a session compiles the kernels
+                self._after_first = (sim.state.t, now, n)
+            t0, w0, n0 = self._after_first
+            elapsed = now - w0
+            warming = n <= n0  # no step timed yet without the compilation: no rate, no ETA
+            rate = (sim.state.t - t0) / elapsed if elapsed > 0 and not warming else 0.0
             eta = (sim.stop_time - sim.state.t) / rate if rate > 0 else float("inf")
             self.progress(Progress(t=sim.state.t, stop_time=sim.stop_time, dt=sim.reports[-1].dt,
-                                   step=sim.state.step, steps_per_s=n / elapsed if elapsed > 0 else 0.0,
-                                   eta_s=eta, wall_s=self.wall_s()))
+                                   step=sim.state.step,
+                                   steps_per_s=(n - n0) / elapsed if elapsed > 0 and not warming else 0.0,
+                                   eta_s=eta, wall_s=self.wall_s(), warming_up=warming))
 
     def wall_s(self) -> float:
         """Wall time of the run so far, over all restarts [s]."""
@@ -406,6 +439,7 @@ class CaseRun:
         finally:
             self.writer.close()
             summary = self.summary(status, message, checkpoint)
+            self._summary_for_figures = summary
             if self.config.output.figures:
                 summary["figures"] = self._figures()
             write_json_atomic(self.directory / SUMMARY_FILE, summary)
@@ -417,6 +451,7 @@ class CaseRun:
             from granflow import plotting
 
             paths = plotting.run_figures(self.output_path, self.directory)
+            paths += plotting.case_figures(self.output_path, self._summary_for_figures, self.directory)
             return {"files": [p.name for p in paths]}
         except Exception as err:  # noqa: BLE001 - figures must not lose a finished run
             return {"error": f"{type(err).__name__}: {err}"}
@@ -430,14 +465,40 @@ class CaseRun:
         x_first = self.front_x[0] if self.front_x else float("nan")
         h = dg.deposit_thickness(g, st.phi, self.phi_max)
         closure = sim.model.closure
+        rms, _ = self._speeds()
+        still_moving = bool(self.case.settles and status is RunStatus.COMPLETED and self.t_rest is None)
+        warnings = []
+        length, time_unit = self.case.unit("length"), self.case.unit("time")
+        if still_moving:
+            ended = ("time.max_steps" if cfg.time.max_steps is not None and st.step >= cfg.time.max_steps
+                     else "time.stop_time")
+            runout = x_final - x_first
+            warnings.append(
+                f"still moving at t = {st.t:.4g} {time_unit} (rms granular speed {rms:.3g} "
+                f"{self.case.unit('speed')} > output.rest_speed {self.rest_speed:.3g}): the run reached "
+                f"{ended} before the flow came to rest, so the run-out "
+                + (f"{runout:.4g} {length}" if np.isfinite(runout) else "")
+                + " is not final; raise time.stop_time and set time.stop_at_rest")
+        if tot.not_converged:
+            pic = cfg.numerics.picard
+            warnings.append(
+                f"Picard iteration not converged in {tot.not_converged} of {st.step} steps "
+                f"({100.0 * tot.not_converged / max(st.step, 1):.0f} %): those steps were accepted after "
+                f"numerics.picard.max_sweeps = {pic.max_sweeps} sweeps with a velocity increment between "
+                f"tol = {pic.tol:g} and fail_tol = {pic.fail_tol:g}")
+        energy = energy_residual(b)
         return {
             "case": cfg.case.name, "status": status.value, "message": message,
-            "warnings": list(self.warnings),
+            "warnings": list(self.warnings) + warnings, "still_moving": still_moving,
+            "rms_speed_final": rms,
             "t_final": st.t, "stop_time": cfg.time.stop_time, "steps": st.step,
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),
             "runout_m": x_final - x_first,
             "front_position": {"threshold_m": self.threshold, "t_s": list(self.front_t),
-                               "x_m": list(self.front_x), "final_m": x_final},
+                               "x_m": list(self.front_x), "final_m": x_final,
+                               "definition": dg.FRONT_DEFINITION,
+                               # fronts are quantised by the column width (diagnostics.front_from_thickness)
+                               "resolution_m": g.dx},
             "final_height_at_wall": float(h[0]),
             "t_rest": self.t_rest, "rest_speed": self.rest_speed, "peak_speed": self.peak_speed,
             "stopped_at_rest": self.stopped_at_rest,
@@ -449,10 +510,13 @@ class CaseRun:
             "phi_min": float(st.phi.min()), "phi_max": float(st.phi.max()),
             "phi_max_before_clip": tot.max_phi_before_clip,
             "phi_min_before_clip": tot.min_phi_before_clip,
-            "energy_residual_rel": b.relative_residual,
-            "energy": {"released": b.released, "dissipated": b.dissipated, "kinetic": b.e_k,
+            "energy_residual_rel": energy["relative"],
+            "energy_residual": energy,
+            "energy": {"released": b.released, "released_gas": b.released_gas, "injected": b.injected,
+                       "dissipated": b.dissipated, "kinetic": b.e_k,
                        "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
+                       "not_converged_fraction": tot.not_converged / st.step if st.step else 0.0,
                        "max_cells_negative_Z": tot.max_negative_Z},
             "linear_solver": {"name": sim.model.linear_solver_name,
                               "krylov_iterations": tot.linear_iterations,
@@ -465,9 +529,48 @@ class CaseRun:
             "case_diagnostics": self.case.diagnostics(sim, cfg),
             "files": {"output": OUTPUT_FILE,
                       "checkpoint": str(checkpoint.relative_to(self.directory)) if checkpoint else None},
-            "units": UNITS,
+            "units": case_units(self.case),
             "granflow_version": _version(), "git_revision": git_revision(),
         }
+
+
+ENERGY_REFERENCE_TOL = 1e-6
+"""An energy source smaller than this fraction of the energy present is no reference for the
+residual (a static layer releases round-off: its "relative" residual would be 1e10)."""
+
+
+def energy_residual(budget) -> dict[str, Any]:
+    """The energy-budget residual, absolute [J m-1], and relative to its reference: the largest
+    energy source of the run -- the released potential energy (collapses), the released gas energy
+    (a draining bed) or the injected gas energy. ``relative`` is null when even that source is
+    negligible (below :data:`ENERGY_REFERENCE_TOL` of the energy present: a layer at rest)."""
+    sources = {"released potential energy": budget.released,
+               "released gas energy": budget.released_gas,
+               "injected gas energy": budget.injected}
+    name, value = max(sources.items(), key=lambda kv: kv[1])
+    present = abs(budget.e_p0) + budget.e_k0 + budget.e_10 + abs(budget.injected)
+    usable = value > ENERGY_REFERENCE_TOL * present and value > 0.0
+    return {"absolute": budget.residual, "reference": name if usable else None,
+            "reference_value": value if usable else None,
+            "relative": budget.residual / value if usable else None,
+            "energy_present": present}
+
+
+def case_units(case) -> dict[str, str]:
+    """The ``units`` entry of summary.json in the case's own units (H0, sqrt(H0/g) for the
+    dimensionless Lagree column)."""
+    length, time_unit = case.unit("length"), case.unit("time")
+    speed, energy = case.unit("speed"), case.unit("energy")
+    units = dict(UNITS)
+    units.update({"runout_m": length, "front_position": f"{length} (t_s in {time_unit})",
+                  "final_height_at_wall": length, "t_rest": time_unit, "rest_speed": speed,
+                  "peak_speed": speed, "rms_speed_final": speed, "energy": energy,
+                  "energy_residual": f"{energy} (relative: 1, of the named reference)",
+                  "t_final": time_unit})
+    if case.units:
+        units["note"] = ("dimensionless case: keys ending in _m or _s are in the units above, "
+                         "not metres and seconds")
+    return units
 
 
 def _version() -> str:

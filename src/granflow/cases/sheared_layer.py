@@ -38,6 +38,7 @@ import numpy as np
 from pydantic import Field
 
 from granflow.cases.common import make_grid, make_simulation, packing_problems
+from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.grid import VelocityBCs
@@ -227,6 +228,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
 
 
 @CASES.register(CASE, setup_model=ShearedLayerSetup, check=check, diagnostics=diagnostics,
+                headline=headlines.sheared_layer,
                 summary="homogeneous layer under imposed shear relaxes to phi_eq(I) (0-D; exact for DP)")
 def setup(config: CaseConfig) -> Simulation:
     """The 0-D model of the homogeneous layer (:class:`HomogeneousShearModel`), phi = phi0 in

@@ -23,6 +23,7 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
+from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import Simulation
@@ -62,6 +63,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
 
 
 @CASES.register("static_layer", setup_model=StaticLayerSetup, check=check, diagnostics=diagnostics,
+                headline=headlines.static_layer,
                 summary="uniform layer at rest: lithostatic pressure, no motion (verification)")
 def setup(config: CaseConfig) -> Simulation:
     """Model, initial state (p = 0: the solver must find the lithostatic pressure) and stop

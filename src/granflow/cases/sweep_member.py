@@ -72,6 +72,35 @@ def write_case_file(config: Mapping[str, Any], path: Path) -> Path:
     return path
 
 
+PROGRESS_FILE = "progress.json"
+"""Written in the member directory while it runs (simulated time, stop time, wall time), read by
+the sweep's progress display."""
+PROGRESS_INTERVAL_S = 1.0
+
+
+class MemberProgress:
+    """Progress callback of a member's run: ``outdir/progress.json`` at most every second."""
+
+    def __init__(self, outdir: Path) -> None:
+        self.path = Path(outdir) / PROGRESS_FILE
+        self._last = -float("inf")
+
+    def __call__(self, p) -> None:
+        import time
+
+        from granflow.output import write_json_atomic
+
+        now = time.monotonic()
+        if now - self._last < PROGRESS_INTERVAL_S:
+            return
+        self._last = now
+        try:
+            write_json_atomic(self.path, {"t": p.t, "stop_time": p.stop_time, "step": p.step,
+                                          "wall_s": p.wall_s, "warming_up": p.warming_up})
+        except OSError:  # progress is best effort
+            pass
+
+
 def run_member(config: dict[str, Any], outdir: Path) -> dict[str, Any]:
     """Run one sweep member; the member function of :func:`granflow.sweep.run_sweep`.
 
@@ -106,7 +135,7 @@ def run_member(config: dict[str, Any], outdir: Path) -> dict[str, Any]:
         case = load_case(case_file)
     except GranflowInputError as err:  # pragma: no cover - validated above; a TOML round-trip bug
         raise GranflowInputError(f"member case file {case_file}: {err}") from None
-    result = CaseRun(case, run_dir, overwrite=True).run()
+    result = CaseRun(case, run_dir, overwrite=True, progress=MemberProgress(Path(outdir))).run()
     summary = result.summary
     if summary.get("status") != STATUS_COMPLETED:
         raise MemberRunFailed(f"run {summary.get('status')}: {result.message}")

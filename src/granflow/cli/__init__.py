@@ -97,8 +97,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="material.<name> / equilibrium.<name> overrides")
     p.add_argument("--equilibrium", default="linear")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--latex", action="store_true", help="also print f in LaTeX")
     p.set_defaults(func=commands.cmd_derive)
     return parser
+
+
+INTERRUPTED = 130
+"""Exit code of a command interrupted by Ctrl-C (128 + SIGINT), as ``granflow run``'s."""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -113,9 +118,9 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into `head` and closed early
         sys.stderr.close()
         return ExitCode.OK
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl-C before a run's own handler is installed (start-up)
         print("granflow: interrupted", file=sys.stderr)
-        return ExitCode.FAILED
+        return INTERRUPTED
     except SystemExit as exc:  # --help / --version
         return int(exc.code or 0)
     except Exception:  # noqa: BLE001 - last resort: show it, it is a bug

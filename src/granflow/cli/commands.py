@@ -215,6 +215,23 @@ def _verdict(lead) -> str:
     return "bounded growth (well posed at high wavenumber)"
 
 
+def readable_dilatancy(derivation):
+    """``(W, f)`` for display: logarithms expanded (log(3^81/(10 I + 3)^81) becomes
+    81 log 3 - 81 log(10 I + 3), then the log terms collected), so that no huge rational appears;
+    f is written as W(I) - (I_eq/I) W(I_eq) from that W. Equal to ``derivation.f``."""
+    import sympy as sp
+
+    from granflow.rheology.derive import I, I_eq
+
+    def tidy(expr):
+        expr = sp.expand(sp.expand_log(expr, force=True))
+        logs = sorted(expr.atoms(sp.log), key=str)
+        return sp.collect(expr, logs, func=sp.factor) if logs else sp.factor(expr)
+
+    W = tidy(derivation.W)
+    return W, W - I_eq / I * W.subs(I, I_eq)
+
+
 def cmd_derive(args: argparse.Namespace) -> int:
     import sympy as sp
 
@@ -233,11 +250,13 @@ def cmd_derive(args: argparse.Namespace) -> int:
     from granflow.theory.conditions import check
 
     report = check(closure)
+    W, f_readable = readable_dilatancy(derivation)
     data = {
         "Z": str(derivation.Z),
-        "f": str(derivation.f),
-        "f_latex": sp.latex(derivation.f),
-        "W": str(sp.simplify(derivation.W)),
+        "f": str(f_readable),
+        "W": str(W),
+        "f_structure": "f = W(phi, I) - (I_eq/I) W(phi, I_eq)",
+        "f_latex": sp.latex(f_readable),
         "note": "f in terms of phi, I and I_eq = I_eq(phi) of the chosen equilibrium law (eq. f-general)",
         "check": report.to_dict(),
     }
@@ -245,8 +264,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
         print(_json(data))
     else:
         print(f"Z(phi, I) = {data['Z']}")
-        print(f"f(phi, p, I) = {data['f']}")
-        print(f"  LaTeX: {data['f_latex']}")
+        print(f"f(phi, p, I) = W(phi, I) - (I_eq/I) W(phi, I_eq),  W(phi, I) = {data['W']}")
+        print(f"  f = {data['f']}")
+        if args.latex:
+            print(f"  LaTeX: {data['f_latex']}")
         print(f"  (I_eq = I_eq(phi), equilibrium law {args.equilibrium!r})")
         print(report.summary_table())
     return ExitCode.OK

@@ -172,8 +172,24 @@ class ProgressPrinter:
 
     @staticmethod
     def line(p) -> str:
+        if getattr(p, "warming_up", False):  # the first step's time is the kernels' compilation
+            return (f"t = {p.t:.4g}/{p.stop_time:.4g} s  step {p.step}  dt = {p.dt:.3g} s  "
+                    f"compiling kernels (once)  wall {_duration(p.wall_s)}")
         return (f"t = {p.t:.4g}/{p.stop_time:.4g} s  step {p.step}  dt = {p.dt:.3g} s  "
                 f"{p.steps_per_s:.1f} steps/s  wall {_duration(p.wall_s)}  ETA {_duration(p.eta_s)}")
+
+    def starting(self, t: float, stop_time: float) -> None:
+        """Before the first step, which compiles the Numba kernels (seconds, once per
+        installation): say so instead of leaving the terminal silent or showing an absurd ETA."""
+        text = f"t = {t:.4g}/{stop_time:.4g} s  step 0  compiling kernels (once)"
+        if self._rich is not None:
+            self._rich.update(self._task, total=stop_time, completed=t, description=text)
+        elif self.tty:
+            self.stream.write("\r" + text + "\x1b[K")
+            self.stream.flush()
+        else:
+            self.stream.write(f"granflow: {text}\n")
+            self.stream.flush()
 
     def __call__(self, p) -> None:
         now = time.monotonic()
@@ -237,6 +253,21 @@ def output_directory(args: argparse.Namespace, config) -> Path:
     return check_directory(out, what, files=RUN_FILES, subdirs=(CHECKPOINT_DIR,))
 
 
+def completion_line(case, s: dict) -> str:
+    """``completed t = 0.585 s in 585 steps (11.8 s wall); <the case's headline>`` in the case's
+    units; ``(still moving: not final)`` when a settling flow ended before coming to rest."""
+    from granflow.cases import headlines
+
+    headline = (case.headline or headlines.column_collapse)(s)
+    if s.get("still_moving"):
+        headline += " (still moving: not final)"
+    unconverged = (s.get("picard") or {}).get("not_converged_steps")
+    if unconverged:
+        headline += f"; Picard not converged in {unconverged} of {s['steps']} steps"
+    return (f"completed t = {s['t_final']:.6g} {case.unit('time')} in {s['steps']} steps "
+            f"({s['wall_s']:.1f} s wall); {headline}")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """``granflow run CASE.toml``; returns a :class:`RunExit` code."""
     from granflow.cases.runner import CaseRun, RunStatus
@@ -247,6 +278,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     printer = None if args.quiet else ProgressPrinter(sys.stderr, config.output.log_interval)
     try:
         run = CaseRun(config, out, restart=args.restart, progress=printer, overwrite=args.overwrite)
+        if printer is not None:
+            printer.starting(run.sim.state.t, run.sim.stop_time)
         with stop_on_sigint(run.sim):
             result = run.run()
     finally:
@@ -255,12 +288,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     s = result.summary
     where = f"output in {out}/ (output.nc, summary.json" + (
         f", {s['files']['checkpoint']})" if s["files"]["checkpoint"] else ")")
-    if result.status is RunStatus.COMPLETED:
-        runout = s["runout_m"]
-        print(f"granflow: completed t = {s['t_final']:.6g} s in {s['steps']} steps "
-              f"({s['wall_s']:.1f} s wall); run-out "
-              + (f"{runout:.4g} m" if runout is not None and math.isfinite(runout) else "n/a")
-              + f"; {where}")
+    if result.status is RunStatus.COMPLETED:  # (a failed or interrupted run keeps its one line)
+        for warning in s.get("warnings", []):
+            print(f"granflow: warning: {warning}", file=sys.stderr)
+        print(f"granflow: {completion_line(run.case, s)}; {where}")
         return RunExit.COMPLETED
     if result.status is RunStatus.FAILED:
         print(f"granflow: run failed: {result.message}; {where}", file=sys.stderr)

@@ -244,6 +244,79 @@ def format_table(rows: list[dict[str, str]], override_keys: list[str]) -> list[s
             for line in [head, *body]]
 
 
+class SweepDisplay:
+    """Progress of a sweep on ``stream``: on a terminal with ``rich``, a bar per running member
+    (its simulated time against its stop time) and one overall (members done); otherwise a line
+    when a member finishes (``sweep: m0001 ok (2/3 done, 0:01:10 elapsed): run-out ...``) and, every
+    :data:`LOG_INTERVAL_S`, the running members' simulated times."""
+
+    LOG_INTERVAL_S = 10.0
+
+    def __init__(self, stream, tty: bool | None = None) -> None:
+        self.stream = stream
+        self.tty = stream.isatty() if tty is None else tty
+        self._rich = None
+        self._tasks: dict[str, Any] = {}
+        self._last = 0.0
+        if self.tty:
+            try:
+                from rich.console import Console
+                from rich.progress import Progress as RichProgress
+
+                self._rich = RichProgress(console=Console(file=stream), transient=False)
+                self._overall = self._rich.add_task("members done", total=None)
+                self._rich.start()
+            except ImportError:
+                self._rich = None
+
+    @staticmethod
+    def member_line(p) -> str:
+        from granflow.cli.run import _duration
+
+        runout = p.summary.get("runout_m")
+        what = f": run-out {_runout(str(runout))} m" if runout not in (None, "") else ""
+        return (f"{p.member_id} {p.status} ({p.done}/{p.total} done, "
+                f"{_duration(p.elapsed_s)} elapsed){what}")
+
+    @staticmethod
+    def running_line(p) -> str:
+        from granflow.cli.run import _duration
+
+        parts = [f"{mid} t = {r.get('t', 0):.3g}/{r.get('stop_time', 0):.3g}"
+                 + (" (compiling kernels, once)" if r.get("warming_up") else "")
+                 for mid, r in sorted(p.running.items())]
+        return (f"{p.done}/{p.total} done, {_duration(p.elapsed_s)} elapsed"
+                + (f"; running: {', '.join(parts)}" if parts else "; starting the workers"))
+
+    def __call__(self, p) -> None:
+        import time
+
+        if self._rich is not None:
+            self._rich.update(self._overall, total=p.total, completed=p.done)
+            for mid, r in p.running.items():
+                if mid not in self._tasks:
+                    self._tasks[mid] = self._rich.add_task(mid, total=r.get("stop_time") or None)
+                self._rich.update(self._tasks[mid], completed=r.get("t", 0.0))
+            if p.member_id is not None and p.member_id in self._tasks:
+                task = self._tasks[p.member_id]
+                self._rich.update(task, completed=self._rich.tasks[task].total or 1.0,
+                                  description=f"{p.member_id} {p.status}")
+            return
+        now = time.monotonic()
+        if p.member_id is not None:
+            self.stream.write(f"granflow: sweep: {self.member_line(p)}\n")
+        elif now - self._last >= self.LOG_INTERVAL_S:
+            self.stream.write(f"granflow: sweep: {self.running_line(p)}\n")
+        else:
+            return
+        self._last = now
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self._rich is not None:
+            self._rich.stop()
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``granflow sweep``; returns 0 if every member completed, 1 if any failed."""
     from granflow.cases.sweep_member import run_member
@@ -273,12 +346,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"granflow: sweep of {n} member(s) of {base_path} on {where}; output in {out}/",
               file=sys.stderr, flush=True)
 
+    display = SweepDisplay(sys.stderr)
     try:
         table = run_sweep(spec, run_member, out, scheduler=args.scheduler, workers=workers,
-                          started=started)
+                          started=started, progress=display)
     except OSError as err:  # e.g. the scheduler cannot be reached, out not writable
         hint = f" (--scheduler {args.scheduler})" if args.scheduler else ""
         raise GranflowInputError(f"sweep{hint}: {type(err).__name__}: {err}") from None
+    finally:
+        display.close()
     with open(table, newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     for line in format_table(rows, list(spec.parameters)):

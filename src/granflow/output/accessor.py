@@ -2,9 +2,11 @@
 
 Importing :mod:`granflow.output` registers the accessor. The diagnostics follow NUMERICS.md §10:
 the deposit thickness is h(x) = sum_j phi(x, z_j) dz_j / phi_max (the height the grains would occupy
-at random close packing) and the front x_f is the furthest x where h exceeds a threshold (by default
-the run's own, the ``front_threshold_m`` attribute that ``granflow run`` writes, else one cell
-height). The dataset must hold a packing-fraction variable ``phi`` with dimensions
+at random close packing) and the front x_f is the right edge of the furthest column where h exceeds a
+threshold (by default the run's own, the ``front_threshold_m`` attribute that ``granflow run``
+writes, else one cell height): the one definition of :func:`granflow.diagnostics.front_from_thickness`,
+the same as the run's ``x_front`` and ``summary.json``. Column edges come from CF bounds when ``x``
+has a ``bounds`` attribute, otherwise ``x`` must be uniformly spaced. The dataset must hold a packing-fraction variable ``phi`` with dimensions
 ``time``, ``x``, ``z`` (any order), a ``phi_max`` attribute on ``phi`` or on the dataset, and
 coordinates ``x`` and ``z`` in metres. Cell heights come from CF cell bounds when the ``z``
 coordinate has a ``bounds`` attribute, otherwise ``z`` must be uniformly spaced.
@@ -17,7 +19,7 @@ Examples
 >>> ds = xr.Dataset({"phi": (("time", "x", "z"), phi, {"phi_max": 0.6})},
 ...                 coords={"time": [0.0, 1.0], "x": x, "z": z})
 >>> ds.granflow.front_position().values.round(3).tolist()
-[0.05, 0.25]
+[0.1, 0.3]
 >>> round(float(ds.granflow.runout()), 3)
 0.2
 """
@@ -29,6 +31,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from granflow import diagnostics as dg
 from granflow.errors import GranflowInputError
 from granflow.output.netcdf import TIME_DIM
 
@@ -47,12 +50,12 @@ LENGTH_UNITS = "m"
 
 
 class FrontMethod(str, enum.Enum):
-    """How the front is located between cells."""
+    """How the front is located (:func:`granflow.diagnostics.front_from_thickness`)."""
 
-    #: Centre of the furthest cell with h > threshold (the NUMERICS.md §10 definition).
-    CELL = "cell"
-    #: Linear interpolation of h between that cell and the next one (sub-cell estimate).
-    LINEAR = "linear"
+    #: The front: the right edge of the furthest column with h > threshold (resolution dx).
+    EDGE = dg.FRONT_EDGE
+    #: Sub-cell estimate: linear interpolation of h between that column's centre and the next.
+    LINEAR = dg.FRONT_LINEAR
 
 
 class Direction(str, enum.Enum):
@@ -119,6 +122,28 @@ class GranflowAccessor:
         return xr.DataArray(dz, dims=(Z_DIM,), coords={Z_DIM: z},
                             attrs={"units": LENGTH_UNITS, "long_name": "cell height"})
 
+    def column_edges(self) -> np.ndarray:
+        """Edges of the columns along x [m], increasing (nx + 1,), from the CF ``bounds`` of ``x``
+        or its uniform spacing."""
+        if X_DIM not in self._ds.coords:
+            raise GranflowInputError(f"dataset has no {X_DIM!r} coordinate")
+        x = self._ds[X_DIM]
+        bounds_name = x.attrs.get("bounds")
+        xv = np.asarray(x.values, dtype=float)
+        if bounds_name is not None and bounds_name in self._ds:
+            b = np.sort(np.asarray(self._ds[bounds_name].values, dtype=float), axis=1)
+            b = b[np.argsort(xv, kind="stable")]
+            return np.concatenate([b[:, 0], b[-1:, 1]])
+        if xv.size < N_BOUNDS:
+            raise GranflowInputError(f"cannot infer the column width from a single {X_DIM} value; "
+                                     "give CF bounds")
+        xs = np.sort(xv)
+        step = (xs[-1] - xs[0]) / (xs.size - 1)
+        if not np.allclose(np.diff(xs), step, rtol=UNIFORM_RTOL, atol=0.0):
+            raise GranflowInputError(f"{X_DIM} is not uniformly spaced; give CF bounds "
+                                     f"(attribute 'bounds' on {X_DIM})")
+        return np.concatenate([xs - 0.5 * step, xs[-1:] + 0.5 * step])
+
     def _threshold(self, threshold: float | None) -> float:
         if threshold is None:  # the run's own threshold (granflow run writes it), else one cell
             stored = self._ds.attrs.get(RUN_THRESHOLD_ATTR)
@@ -152,26 +177,28 @@ class GranflowAccessor:
         return h
 
     def front_position(self, threshold: float | None = None,
-                       method: FrontMethod | str = FrontMethod.CELL,
+                       method: FrontMethod | str = FrontMethod.EDGE,
                        direction: Direction | str = Direction.PLUS_X) -> xr.DataArray:
-        """Front position x_f(t): the furthest x where h(x) > ``threshold`` (NUMERICS.md §10).
+        """Front position x_f(t): the right edge of the furthest column where h(x) > ``threshold``
+        (:func:`granflow.diagnostics.front_from_thickness`, the run's own definition).
 
         Parameters
         ----------
         threshold : float, optional
             Thickness threshold [m]; default the run's (attribute ``front_threshold_m``), else one
             cell height (the largest, if cells differ).
-        method : {"cell", "linear"}
-            ``"cell"``: centre of the furthest cell above the threshold. ``"linear"``: the point
-            between that cell centre and the next where the linear interpolant of h equals the
-            threshold (exact for a deposit whose thickness is linear near the front).
+        method : {"edge", "linear"}
+            ``"edge"``: the front (resolution one column width dx). ``"linear"``: sub-cell
+            estimate, where the linear interpolant of h between the centres of that column and
+            the next equals the threshold (exact for a deposit whose thickness is linear there).
         direction : {"+x", "-x"}
-            ``"+x"``: largest such x; ``"-x"``: smallest (flow spreading towards -x).
+            ``"+x"``: largest such x; ``"-x"``: smallest (flow spreading towards -x; the left
+            edge of the furthest column).
 
         Returns
         -------
         xarray.DataArray
-            x_f over time [units of x, m]; NaN where no cell exceeds the threshold.
+            x_f over time [units of x, m]; NaN where no column exceeds the threshold.
         """
         method, direction = FrontMethod(method), Direction(direction)
         h = self.deposit_thickness()
@@ -182,28 +209,21 @@ class GranflowAccessor:
         h = h.transpose(TIME_DIM, X_DIM)
         x = np.asarray(h[X_DIM].values, dtype=float)
         order = np.argsort(x, kind="stable")
-        if direction is Direction.MINUS_X:
-            order = order[::-1]
-        xs, hv = x[order], np.asarray(h.values, dtype=float)[:, order]
-        nx = xs.size
-        above = hv > thr  # NaN compares False
-        has = above.any(axis=1)
-        last = nx - 1 - np.argmax(above[:, ::-1], axis=1)  # last cell above, along the direction
-        front = xs[last].copy()
-        if method is FrontMethod.LINEAR:
-            rows = np.nonzero(has & (last < nx - 1))[0]
-            i = last[rows]
-            h0, h1 = hv[rows, i], hv[rows, i + 1]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                interp = xs[i] + (h0 - thr) / (h0 - h1) * (xs[i + 1] - xs[i])
-            front[rows] = np.where(np.isfinite(interp), interp, front[rows])
-        front[~has] = np.nan
-        out = xr.DataArray(front, dims=(TIME_DIM,), coords={TIME_DIM: h[TIME_DIM]}, name="x_f",
+        edges = self.column_edges()
+        hv = np.asarray(h.values, dtype=float)[:, order]
+        if direction is Direction.MINUS_X:  # mirror: the same rule along -x
+            front = -dg.front_from_thickness(-edges[::-1], hv[:, ::-1], thr, method.value)
+        else:
+            front = dg.front_from_thickness(edges, hv, thr, method.value)
+        out = xr.DataArray(np.atleast_1d(front), dims=(TIME_DIM,), coords={TIME_DIM: h[TIME_DIM]},
+                           name="x_f",
                            attrs={"units": self._ds[X_DIM].attrs.get("units", LENGTH_UNITS),
-                                  "long_name": f"front position (h > {thr:g} m, {method.value})"})
+                                  "long_name": f"front position (h > {thr:g} m, {method.value})",
+                                  "definition": dg.FRONT_DEFINITION,
+                                  "resolution": float(np.max(np.diff(edges)))})
         return out.isel({TIME_DIM: 0}) if scalar_time else out
 
-    def runout(self, threshold: float | None = None, method: FrontMethod | str = FrontMethod.CELL,
+    def runout(self, threshold: float | None = None, method: FrontMethod | str = FrontMethod.EDGE,
                direction: Direction | str = Direction.PLUS_X) -> xr.DataArray:
         """Run-out distance Delta L = x_f(t_last) - x_f(t_first) [m].
 

@@ -34,7 +34,8 @@ from granflow.errors import GranflowInputError
 TIME_DIM = "time"
 #: Attributes of the time coordinate: elapsed simulation time in seconds (CF reserves
 #: ``standard_name = "time"`` for times with a reference date, so none is set).
-TIME_ATTRS = {"units": "s", "long_name": "time since the start of the run", "axis": "T"}
+TIME_ATTRS = {"units": "s", "long_name": "time since the start of the run", "axis": "T",
+              "standard_name": "time"}
 #: CF version whose attribute conventions the files follow.
 CONVENTIONS = "CF-1.10"
 #: Seconds allowed for each ``git`` call of :func:`git_revision`.
@@ -180,7 +181,7 @@ class NetCDFWriter:
     def __init__(self, path: str | os.PathLike, coords: Mapping[str, tuple[Any, Mapping[str, Any]]],
                  variables: Mapping[str, VariableSpec], global_attrs: Mapping[str, Any] | None = None,
                  *, case_file: str = "", title: str = "granflow run",
-                 format: NetCDFFormat | str = NetCDFFormat.CLASSIC_64BIT) -> None:
+                 format: NetCDFFormat | str = NetCDFFormat.CLASSIC_64BIT, time_units: str = "s") -> None:
         self.path = Path(path)
         fmt = NetCDFFormat(format)
         shapes: dict[str, int] = {}
@@ -228,7 +229,10 @@ class NetCDFWriter:
             self._ds.setncatts({k: _attr_value(k, v) for k, v in attrs.items()})
             self._ds.createDimension(TIME_DIM, None)
             tvar = self._ds.createVariable(TIME_DIM, "f8", (TIME_DIM,))
-            tvar.setncatts(TIME_ATTRS)
+            tattrs = {**TIME_ATTRS, "units": time_units}
+            if time_units != TIME_ATTRS["units"]:  # a dimensionless time has no CF standard name
+                tattrs.pop("standard_name")
+            tvar.setncatts(tattrs)
             for name, (values, cattrs) in coords.items():
                 arr = np.asarray(values)
                 self._ds.createDimension(name, arr.size)

@@ -15,12 +15,18 @@ import numpy as np
 SCALARS = ("phi", "p", "p_f", "S", "u", "w")
 
 
+ROUND_OFF = 1e-9
+"""Edges closer to 0 than this fraction of the cell size are 0 (round-off of centre - h/2)."""
+
+
 def _edges(centres: np.ndarray) -> np.ndarray:
     """Cell edges of a uniform axis from its centres [m]."""
     if centres.size < 2:
         raise ValueError("need at least two cells per direction")
     h = float(centres[1] - centres[0])
-    return np.concatenate([centres - h / 2, [centres[-1] + h / 2]])
+    edges = np.concatenate([centres - h / 2, [centres[-1] + h / 2]])
+    edges[np.abs(edges) < ROUND_OFF * h] = 0.0  # x0 = 0 exactly, not 8.7e-19 (centre - h/2 round-off)
+    return edges
 
 
 def _values(a: np.ndarray) -> str:
