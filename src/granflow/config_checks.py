@@ -1,0 +1,58 @@
+"""Checks of a validated :class:`granflow.config.CaseConfig` that span sections (any case):
+probes inside the box, a reachable step budget, physical ranges, grains smaller than the column,
+a yield function that is not negative on the equilibrium line. Each problem is ``(key, message)``.
+"""
+from __future__ import annotations
+
+from granflow.config import COLUMN_KEYS, EQUILIBRIUM_I, KEY_SEP, MAX_STEPS, PHYSICAL_RANGES
+
+
+def common_problems(cfg) -> list[tuple[str, str]]:
+    """Consistency of options of the common sections with each other (any case)."""
+    out = []
+    # a case may take its box length from [setup] (lagree_column: setup.Lx, dimensionless)
+    key, length = ("setup.Lx", cfg.setup.Lx) if hasattr(cfg.setup, "Lx") else ("grid.Lx", cfg.grid.Lx)
+    bad = [x for x in cfg.output.probes_x if not 0.0 <= x <= length]
+    if bad:
+        out.append(("output.probes_x", f"{bad} outside the box [0, {key} = {length}]"))
+    t = cfg.time
+    if t.max_steps is None and t.stop_time / t.dt_max > MAX_STEPS:
+        out.append(("time.dt_max", f"stop_time / dt_max = {t.stop_time:g} s / {t.dt_max:g} s = "
+                                   f"{t.stop_time / t.dt_max:.3g} steps at least, more than the step "
+                                   f"budget of {MAX_STEPS} (granflow.config.MAX_STEPS): the run could "
+                                   "not reach stop_time; raise time.dt_max, or set time.max_steps to "
+                                   "run part of it"))
+    if not cfg.case.allow_unphysical:
+        for name, (lo, hi, unit) in PHYSICAL_RANGES.items():
+            section, field = name.split(KEY_SEP)
+            value = getattr(getattr(cfg, section), field)
+            if not lo <= value <= hi:
+                out.append((name, f"{value:g} {unit} is outside the physical range [{lo:g}, {hi:g}] "
+                                  f"{unit} (set case.allow_unphysical = true for an unusual study)"))
+    column = [(f"setup.{k}", getattr(cfg.setup, k)) for k in COLUMN_KEYS if hasattr(cfg.setup, k)]
+    column_key, height = column[0] if column else ("grid.Lz", cfg.grid.Lz)
+    if isinstance(height, float) and not cfg.material.d < height:
+        out.append(("material.d", f"grain diameter {cfg.material.d:g} m is not smaller than the "
+                                  f"column ({column_key} = {height:g} m)"))
+    out += yield_problems(cfg)
+    return out
+
+
+def yield_problems(cfg) -> list[tuple[str, str]]:
+    """The yield function Z must be >= 0 on the equilibrium line phi = phi_eq(I) (a negative Z
+    is a negative friction coefficient: the solver would only count the cells where it is)."""
+    import numpy as np
+
+    closure = cfg.make_closure()
+    I = np.concatenate([[EQUILIBRIUM_I[0]], np.logspace(-6, np.log10(EQUILIBRIUM_I[1]), 60)])
+    with np.errstate(all="ignore"):
+        phi = np.asarray(closure.equilibrium.phi_eq(I), dtype=float)
+        keep = phi > 0
+        Z = np.asarray(closure.Z(phi[keep], I[keep]), dtype=float)
+    negative = np.flatnonzero(Z < 0)
+    if not negative.size:
+        return []
+    k = negative[0]
+    key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
+    return [(key, f"the yield function is negative on the equilibrium line: Z(phi_eq(I), I) = "
+                  f"{Z[k]:.3g} at I = {I[keep][k]:.3g} (a negative friction coefficient)")]
