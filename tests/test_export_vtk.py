@@ -11,7 +11,7 @@ from granflow.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "column_collapse_fluidised.toml"
-TINY = ["--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "output.interval=0.01", "--set",
+TINY = ["--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "grid.Lx=0.4", "--set", "output.interval=0.01", "--set",
         "time.stop_time=0.02", "--set", "output.figures=false", "--quiet"]
 
 

@@ -14,7 +14,8 @@ from granflow.config import load_case
 from granflow.errors import GranflowInputError
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "column_collapse_fluidised.toml"
-TINY = ["grid.nx=16", "grid.nz=6", "time.stop_time=0.02", "output.interval=0.01"]
+TINY = ["grid.nx=16", "grid.nz=6", "grid.Lx=0.4", "time.stop_time=0.02", "output.interval=0.01"]  # the 0.4 m box the
+# expected values below are computed for (the example itself is 0.5 m long)
 
 
 def test_probes_record_the_basal_pore_pressure(tmp_path):
@@ -37,8 +38,8 @@ def test_probes_record_the_basal_pore_pressure(tmp_path):
 
 
 def test_probe_outside_the_box_is_rejected():
-    with pytest.raises(GranflowInputError, match=r"output\.probes_x.*\[0\.5\]"):
-        load_case(EXAMPLE, overrides=["output.probes_x=[0.1, 0.5]"])
+    with pytest.raises(GranflowInputError, match=r"output\.probes_x.*\[0\.6\]"):
+        load_case(EXAMPLE, overrides=["output.probes_x=[0.1, 0.6]"])  # the box is 0.5 m long
 
 
 def test_restart_with_other_probes_is_rejected(tmp_path):
@@ -49,7 +50,7 @@ def test_restart_with_other_probes_is_rejected(tmp_path):
     assert main(argv) == 0
     argv = ["run", str(EXAMPLE), "--out", str(out), "--quiet", "--restart", str(out),
             "--set", "output.probes_x=[0.2]", "--set", "time.stop_time=0.04"]
-    for item in TINY[:2]:
+    for item in TINY[:3]:
         argv += ["--set", item]
     assert main(argv) == 2
 

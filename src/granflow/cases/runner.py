@@ -37,6 +37,7 @@ from granflow import diagnostics as dg
 from granflow.cases.memory import check_memory
 from granflow.cases.registry import CASES
 from granflow.cases.restart import CHECKPOINT_DIR, check_checkpoint, resolve_checkpoint
+from granflow.cases.wall_contact import WallWatch, warning_text
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.output import (
@@ -176,6 +177,8 @@ class CaseRun:
                            else REST_SPEED_FACTOR * config.numerics.eps * self.grid.Lz)
         self.progress = progress
         self.warnings: list[str] = []
+        self._phi_eq_warned = False
+        self.walls = WallWatch(self.grid.periodic_x)
         self.front_t: list[float] = []
         self.front_x: list[float] = []
         self.mass0 = dg.mass(self.grid, self.sim.state.phi)
@@ -285,14 +288,27 @@ class CaseRun:
         self.writer.append(t, {**self._fields(), "kinetic_energy": np.float64(sim.budget.e_k),
                                "x_front": np.float64(x_f), **probes})
         self._check_equilibrium_range()
+        self._check_walls(t)
         self._last_out_t = t
         self.front_t.append(t)
         self.front_x.append(x_f)
 
+    def _check_walls(self, t: float) -> None:
+        """Warn (once per side) when grains reach the east wall or the lid (module
+        :mod:`granflow.cases.wall_contact`); flag it in output.nc."""
+        new = self.walls.check(self.sim.state.phi, self.phi_max, t)
+        key = "setup.Lx" if hasattr(self.config.setup, "Lx") else "grid.Lx"
+        for side in new:
+            text = warning_text(side, t, self.case_unit("time"), key)
+            self.warnings.append(text)
+            logger.warning(text)
+        if new or not self.front_t:  # the flags exist (0) from the first record on
+            self.writer.set_attributes(self.walls.attributes())
+
     def _check_equilibrium_range(self) -> None:
         """Warn (once) when the run reaches an I at which phi_eq(I) < 0 (e.g. a large
         material.delta_phi): the equilibrium law is then outside its meaning."""
-        if self.warnings:
+        if self._phi_eq_warned:
             return
         m, st = self.sim.model, self.sim.state
         grains = (st.phi >= m.ambient.phi_c) & (st.p > 0)
@@ -312,6 +328,7 @@ class CaseRun:
                     f"delta_phi = {getattr(law, 'delta_phi', float('nan')):g}): the dilatancy law "
                     "is outside its range; lower delta_phi or use a law with phi_eq > 0 at every I")
             self.warnings.append(text)
+            self._phi_eq_warned = True
             logger.warning(text)
 
     # --- monitor, checkpoints -------------------------------------------------------------------
@@ -490,6 +507,7 @@ class CaseRun:
         return {
             "case": cfg.case.name, "status": status.value, "message": message,
             "warnings": list(self.warnings) + warnings, "still_moving": still_moving,
+            "wall_contact": dict(self.walls.first),
             "rms_speed_final": rms,
             "t_final": st.t, "stop_time": cfg.time.stop_time, "steps": st.step,
             "rejected_steps": tot.rejected, "wall_s": self.wall_s(),

@@ -363,6 +363,12 @@ class NetCDFWriter:
         self._last_t = t
         return i
 
+    def set_attributes(self, attrs: Mapping[str, Any]) -> None:
+        """Set (or replace) global attributes of the open file, e.g. a flag found during the run."""
+        if not self.closed:
+            self._ds.setncatts({k: _attr_value(k, v) for k, v in attrs.items()})
+            self._ds.sync()
+
     def sync(self) -> None:
         """Flush everything written so far to disk."""
         if not self.closed:
