@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granflow.grid import Grid
-from granflow.physics.pore_pressure import GasEnergy, GasLaw, darcy_dissipation, gas_energy
+from granflow.physics.pore_pressure import GasEnergy, gas_energy
 
 HALF = 0.5
 
@@ -71,33 +71,11 @@ def potential_energy(model, state) -> float:
     return -model.material.rho_s * model.grid.cell_volume * float(np.sum(state.phi * (gx * X + gz * Z)))
 
 
-def dissipation_rates(model, state) -> tuple[float, float]:
-    """``(D_y, D_d)`` [W m^-1] of ``state`` with the viscosity recomputed from (u, p) (not the
-    lagged one of the last Picard sweep, which the step reports carry)."""
-    ops = model.ops
-    S = ops.strain_rate_norm(state.vel)
-    dense = model.dense(state.phi)
-    coef = model.coefficients(model.effective_packing(state.phi), state.p.ravel(), S, 1.0, dense)
-    eta_c = coef.eta_c
-    d_y = ops.dissipation(state.vel, eta_c, ops.cell_to_node @ eta_c)
-    d_d = -model.grid.cell_volume * float(state.p.ravel() @ (ops.div @ state.vel))
-    return d_y, d_d
-
-
 def gas_energy_of(model, state) -> float:
     """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry."""
     if model.gas is None:
         return 0.0
     return gas_energy(model.grid, state.phi, state.p_f, model.material, GasEnergy.LOG)
-
-
-def darcy_dissipation_of(model, state) -> float:
-    """Darcy dissipation ``sum w_f kappa_f |Grad p_f|^2 dV`` [W m^-1] of ``state`` (kappa at the
-    state's phi; pairing of :mod:`granflow.physics.coupling`); 0 if dry."""
-    if model.gas is None:
-        return 0.0
-    return darcy_dissipation(model.grid, model.ops, state.phi, state.p_f, model.material,
-                             open_top=model.gas_coupling.open_top, weighted=model.gas is GasLaw.LINEAR)
 
 
 def basal_pressure(grid: Grid, field, x: float) -> float:

@@ -166,11 +166,6 @@ def momentum_advection(ops: Operators, vel, scheme: Advection | str = Advection.
     return np.concatenate([(ax + az).ravel(), (bx + bz).ravel()])
 
 
-def upwind_advection(ops: Operators, vel) -> np.ndarray:
-    """First-order upwind ``(u . grad) u`` (:func:`momentum_advection` with ``UPWIND``)."""
-    return momentum_advection(ops, vel, Advection.UPWIND)
-
-
 def yield_viscosity(Z, p, S, eps: float) -> np.ndarray:
     """Regularised yield viscosity ``eta = Z p / (2 sqrt(|S|^2 + eps^2))`` [Pa s] (NUMERICS.md §4).
 
@@ -192,16 +187,6 @@ def yield_viscosity(Z, p, S, eps: float) -> np.ndarray:
     """
     Z, p, S = (np.asarray(x, dtype=float) for x in (Z, p, S))
     return np.maximum(Z, 0.0) * np.maximum(p, 0.0) / (2.0 * np.sqrt(S * S + eps * eps))
-
-
-def momentum_matrix(ops: Operators, rho_f, dt: float, eta_c, eta_n) -> sp.csr_matrix:
-    """Velocity block ``A = diag(rho_f/dt) + V(eta)`` [kg m^-3 s^-1] (symmetric positive definite)."""
-    return (sp.diags(np.asarray(rho_f) / dt) + ops.viscous_operator(eta_c, eta_n)).tocsr()
-
-
-def momentum_rhs(ops: Operators, vel, rho_f, dt: float, body_force) -> np.ndarray:
-    """Explicit right-hand side ``rho_f (u^n/dt - a^n) + f`` [N m^-3] (``a^n`` upwind advection)."""
-    return np.asarray(rho_f) * (np.asarray(vel) / dt - upwind_advection(ops, vel)) + body_force
 
 
 class GasBorder(NamedTuple):

@@ -76,15 +76,6 @@ def barker_criterion(I, mu1: float, mu2: float, I0: float):
     return 4.0 * nu**2 - 4.0 * nu + mu**2 * (1.0 - 0.5 * nu) ** 2
 
 
-def barker_optimal_direction(I, mu1: float, mu2: float, I0: float):
-    """s* = sin(2 theta*) = b / (2 (1 - nu)), b = mu (1 - nu/2): the direction in which Barker's
-    criterion is evaluated [-]. The criterion is exact only where |s*| <= 1 and nu < 1."""
-    nu = barker_nu(I, mu1, mu2, I0)
-    b = mu_of_I(I, mu1, mu2, I0) * (1.0 - 0.5 * nu)
-    with np.errstate(divide="ignore"):
-        return b / (2.0 * (1.0 - nu))
-
-
 def barker_ill_posed(I, mu1: float, mu2: float, I0: float):
     """Exact ill-posedness test of incompressible mu(I): min over s in [-1, 1] of
     g(s) = (1 - nu) s^2 - b s + nu is negative, or b >= 1 (the leading-order eigenvalue has a pole
