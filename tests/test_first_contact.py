@@ -154,20 +154,9 @@ def test_dimensionless_case_prints_and_plots_its_own_units(tmp_path, capsys, mon
     """lagree_column: the console, output.nc, summary.json and both figures are in H0,
     sqrt(H0/g), sqrt(g H0); front.png names the closure actually used (incompressible), not the
     [closure] default (drucker_prager) that the case ignores."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import netCDF4
-    from matplotlib.figure import Figure
 
-    saved = {}
-    original = Figure.savefig
-
-    def keep(self, path, *args, **kwargs):
-        saved[Path(path).name] = self
-        return original(self, path, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", keep)
+    saved = _capture_figures(monkeypatch)
     out = tmp_path / "lag"
     s, stdout, stderr = run(capsys, "lagree_column.toml", out, "grid.nx=16", "grid.nz=16",
                             "time.stop_time=0.2")
