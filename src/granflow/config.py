@@ -209,6 +209,11 @@ class NumericsSection(Section):
     phi_transport: Literal["muscl", "sharp"] = Field(
         "muscl", description='face values of the phi transport: "muscl" (MUSCL-minmod) or "sharp" '
         '(MUSCL-THINC-BVD, the free surface kept within 1-2 cells) [-]')
+    surface: Literal["threshold", "indicator"] = Field(
+        "threshold", description='how grains are told from the ambient: "threshold" (phi < '
+        'ambient.phi_c is ambient) or "indicator" (a transported material fraction c; the closure '
+        'at the packing phi/c; interface_packing, isochoric_interface, phi_transport and phi_c '
+        'unused) [-]')
     interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
     gravity_blend_velocity: float | None = Field(

@@ -97,11 +97,13 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
     PicardParams,
     StepReport,
     StepStatus,
+    Surface,
 )
 from granflow.operators import Operators
 from granflow.physics import momentum as mom
 from granflow.physics.coupling import GasCoupling
 from granflow.physics.dilatancy import ap_factor
+from granflow.physics.material import PHI_EMPTY, C_MIN, advect_material, material_fraction, packing
 from granflow.physics.pore_pressure import GasLaw
 from granflow.physics.transport import (
     PhiScheme,
@@ -149,6 +151,12 @@ class Model:
         Momentum transport: the v1 non-conservative ``(u . grad) u`` schemes ``"upwind"``
         (default) and ``"muscl"``, or ``"consistent"`` (scheme v2: conservative, with the mass
         fluxes of the phi transport, :mod:`granflow.physics.momentum_transport`).
+    surface : Surface or str
+        ``"threshold"`` (default, v1: ``phi < ambient.phi_c`` is ambient) or ``"indicator"``
+        (scheme v2: a transported material fraction ``c``, :mod:`granflow.physics.material`; the
+        state carries ``c``, every material cell is dense and the closure is evaluated at the
+        packing ``phi / c``; ``interface_packing``, ``isochoric_interface``, ``phi_transport``
+        and ``ambient.phi_c`` are then not used).
     phi_transport : PhiScheme or str
         Face values of the phi transport: ``"muscl"`` (default, v1: MUSCL-minmod) or ``"sharp"``
         (MUSCL-THINC-BVD: the free surface stays within 1-2 cells,
@@ -187,7 +195,8 @@ class Model:
                  advection: mom.Advection | str = mom.Advection.UPWIND,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
                  linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
-                 isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL) -> None:
+                 isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
+                 surface: Surface | str = Surface.THRESHOLD) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -229,6 +238,13 @@ class Model:
         except ValueError:
             raise GranflowInputError(f"Model: unknown phi_transport {phi_transport!r}; expected one of "
                                      f"{[a.value for a in PhiScheme]}") from None
+        try:
+            self.surface = Surface(surface)
+        except ValueError:
+            raise GranflowInputError(f"Model: unknown surface {surface!r}; expected one of "
+                                     f"{[a.value for a in Surface]}") from None
+        if self.surface is Surface.INDICATOR:
+            self.isochoric_interface, self.interface_packing = 0, False
         self.gravity_blend_velocity = (self.eps * grid.Lz if gravity_blend_velocity is None
                                        else float(gravity_blend_velocity))
         if not self.gravity_blend_velocity > 0:
@@ -271,9 +287,34 @@ class Model:
             self.gas = self.gas_coupling.gas
 
     # --- fields -------------------------------------------------------------------------------
-    def dense(self, phi) -> np.ndarray:
-        """Flat mask of the granular (non-ambient) cells, ``phi >= phi_c``."""
+    @property
+    def indicator(self) -> bool:
+        """True with the material-indicator surface (:class:`Surface`)."""
+        return self.surface is Surface.INDICATOR
+
+    def dense(self, phi, c=None) -> np.ndarray:
+        """Flat mask of the granular (non-ambient) cells: ``phi >= phi_c`` (threshold surface) or
+        ``c > C_MIN`` (indicator surface; without ``c``, the cells holding grains)."""
+        if self.indicator:
+            return np.ravel(c) > C_MIN if c is not None else np.ravel(phi) > PHI_EMPTY
         return np.ravel(phi) >= self.ambient.phi_c
+
+    def material_of(self, phi) -> np.ndarray | None:
+        """Initial material fraction of a solid fraction field (indicator surface; None
+        otherwise): ``c = min(phi / psi, 1)`` with ``psi`` the largest packing in the 3 x 3
+        neighbourhood (a cell cut by the initial surface holds the packing of the cells beside it)."""
+        if not self.indicator:
+            return None
+        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        return material_fraction(phi, maximum_filter(phi, size=3, mode=self._filter_mode()))
+
+    def transport(self, phi, vel, dt: float, c=None, dilation=None):
+        """The step's transport of the grains with ``vel`` (:func:`granflow.physics.transport.advect`,
+        or with the indicator :func:`granflow.physics.material.advect_material`, whose result also
+        carries ``c``; ``dilation`` the partial cells' dilatation rate [s^-1])."""
+        if self.indicator:
+            return advect_material(self.grid, c, phi, vel, dt, self.material.phi_max, dilation)
+        return advect(self.grid, phi, vel, dt, self.material.phi_max, self.phi_transport)
 
     def _filter_mode(self):
         return ("wrap", "nearest") if self.grid.periodic_x else "nearest"
@@ -299,9 +340,12 @@ class Model:
         faces = (self._face_cells @ band.ravel().astype(float)) > 0.0
         return faces if faces.any() and not faces.all() else None
 
-    def effective_packing(self, phi) -> np.ndarray:
-        """Flat phi at which the closure is evaluated: phi_loc near the ambient (NUMERICS.md
-        §7.1), clipped to ``[PHI_FLOOR, phi_max]``."""
+    def effective_packing(self, phi, c=None) -> np.ndarray:
+        """Flat phi at which the closure is evaluated: the packing inside the material
+        ``phi / c`` (indicator surface) or phi_loc near the ambient (NUMERICS.md §7.1), clipped
+        to ``[PHI_FLOOR, phi_max]``."""
+        if self.indicator:
+            return np.clip(packing(c, phi), PHI_FLOOR, self.material.phi_max).ravel()
         phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
         out = phi
         if self.interface_packing:
@@ -328,7 +372,7 @@ class Model:
         upper = np.concatenate([phi[:, 1:], np.zeros((phi.shape[0], 1))], axis=1)
         face = 0.5 * (phi + upper) * self.material.rho_s * abs(self.gravity[1]) * self.grid.dz
         p = np.cumsum(face[:, ::-1], axis=1)[:, ::-1]
-        return np.where(phi >= self.ambient.phi_c, p, 0.0)
+        return np.where(self.dense(phi).reshape(self.grid.cell_shape), p, 0.0)
 
     def initial_state(self, phi, p_f=0.0) -> State:
         """State at rest with ``phi``, pore pressure ``p_f`` [Pa] (zeroed in the ambient) and
@@ -345,7 +389,7 @@ class Model:
             raise GranflowInputError("Model.initial_state: p_f != 0 needs a gas law (gas=...)")
         p_f = np.where(self.dense(phi).reshape(self.grid.cell_shape), p_f, 0.0)
         p = np.maximum(self.lithostatic_pressure(phi) - p_f, 0.0)
-        return State.at_rest(self.grid, phi, p=p, p_f=p_f)
+        return State.at_rest(self.grid, phi, p=p, p_f=p_f, c=self.material_of(phi))
 
     def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
         """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
@@ -356,7 +400,7 @@ class Model:
                     if self.consistent_gravity else None)
         return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
 
-    def gravity_split(self, phi, vel, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    def gravity_split(self, phi, vel, dt: float, c=None) -> tuple[np.ndarray, np.ndarray]:
         """Gravity force of the step as ``f_0 - drag * u^{n+1}`` [N m^-3], ``drag >= 0``
         [kg m^-3 s^-1].
 
@@ -379,7 +423,7 @@ class Model:
         centred = ops.cell_to_face @ phi.ravel()
         if not self.consistent_gravity:
             return rho_s * gvec * centred, np.zeros(g.n_unknowns)
-        out = advect(g, phi, vel, dt, self.material.phi_max, self.phi_transport)
+        out = self.transport(phi, vel, dt, c)
         flux = g.pack_velocity(out.flux_x, out.flux_z)
         moving = vel != 0.0
         upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
@@ -434,6 +478,9 @@ class Model:
         """
         if not (np.isfinite(dt) and dt > 0):
             raise GranflowInputError(f"Model.advance: dt must be > 0, got {dt!r}")
+        if self.indicator and state.c is None:
+            raise GranflowInputError("Model.advance: the indicator surface needs the material fraction "
+                                     "state.c (build the state with Model.initial_state)")
         tim = {"assembly": 0.0, "solve": 0.0, "transport": 0.0}
         sweeps = 0
         try:
@@ -441,7 +488,7 @@ class Model:
             im = step.implicit_stage(self, state, dt, ex, tim)
             sweeps = im.sweeps
             powers = step.energy_terms(self, state, dt, ex, im)
-            tr = step.transport_stage(self, state, dt, im.u, tim, sweeps)
+            tr = step.transport_stage(self, state, dt, im.u, tim, sweeps, im.dilation)
         except step.StepFailed as failure:
             return self._failed(dt, failure.message, failure.sweeps or sweeps, tim)
         gas_powers = None
@@ -451,6 +498,8 @@ class Model:
             tim["assembly"] += time.perf_counter() - t0
             state.p_f = im.p_f.reshape(self.grid.cell_shape)
         state.phi = tr.phi
+        if tr.c is not None:
+            state.c = tr.c
         state.vel = im.u
         state.p = im.p.reshape(self.grid.cell_shape)
         state.t += dt

@@ -73,6 +73,18 @@ class LinearSolverChoice(str, Enum):
     does not change; 2-4x faster than SuperLU on the column systems (benchmarks/README.md)."""
 
 
+class Surface(str, Enum):
+    """How the model tells grains from the ambient (``numerics.surface``)."""
+
+    THRESHOLD = "threshold"
+    """v1: cells with ``phi < ambient.phi_c`` are a pressureless light ambient; the closure sees
+    ``phi_loc`` near it and an isochoric band keeps partial cells from dilating."""
+    INDICATOR = "indicator"
+    """Scheme v2: a transported material fraction ``c`` (:mod:`granflow.physics.material`);
+    every cell with material has its pressure, weight and strength, the closure sees the packing
+    inside the material ``phi / c``; no threshold, no band, no ``phi_loc``."""
+
+
 class AmbientParams(Params):
     """The pressureless light ambient (NUMERICS.md §7).
 

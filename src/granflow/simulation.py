@@ -359,6 +359,8 @@ class Simulation:
         """
         st, b = self.state, self.budget
         arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS}
+        if st.c is not None:
+            arrays["state.c"] = st.c
         scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected}
         for f in fields(b):  # every float, array and dict-of-floats field of the budget
             value = getattr(b, f.name)
@@ -386,7 +388,8 @@ class Simulation:
         b = self.budget
         try:
             state = State(**{k: np.array(arrays[f"state.{k}"]) for k in STATE_ARRAYS},
-                          t=float(scalars["state.t"]), step=int(scalars["state.step"]))
+                          t=float(scalars["state.t"]), step=int(scalars["state.step"]),
+                          c=np.array(arrays["state.c"]) if "state.c" in arrays else None)
             budget: dict[str, Any] = {}
             for f in fields(b):
                 value, key = getattr(b, f.name), f"budget.{f.name}"
@@ -405,6 +408,8 @@ class Simulation:
         except KeyError as err:
             raise GranflowInputError(f"checkpoint: missing entry {err}") from None
         state.check(self.model.grid)
+        if getattr(self.model, "indicator", False) and state.c is None:
+            raise GranflowInputError('checkpoint: no material fraction (state.c) for numerics.surface = "indicator"')
         self.state.restore(state)
         for k, v in budget.items():
             setattr(b, k, v)

@@ -10,6 +10,8 @@ field      shape                       meaning
                                        the ambient and in "free" cells, NUMERICS.md §5.4)
 ``p_f``    ``(nx, nz)``                pore-gas over-pressure at cell centres [Pa] (zero in the
                                        dry model)
+``c``      ``(nx, nz)`` or None        material fraction [-] (``numerics.surface = "indicator"``,
+                                       :mod:`granflow.physics.material`; None otherwise)
 ``t``      scalar                      time [s]
 ``step``   scalar                      number of accepted steps
 =========  ==========================  ==========================================================
@@ -54,6 +56,9 @@ class State:
         Time [s].
     step : int
         Number of accepted steps.
+    c : ndarray, (nx, nz), optional
+        Material fraction [-] of the indicator surface (:mod:`granflow.physics.material`);
+        None for the threshold surface.
     """
 
     phi: np.ndarray
@@ -62,9 +67,10 @@ class State:
     p_f: np.ndarray
     t: float = 0.0
     step: int = 0
+    c: np.ndarray | None = None
 
     @classmethod
-    def at_rest(cls, grid: Grid, phi, p=0.0, p_f=0.0, t: float = 0.0) -> State:
+    def at_rest(cls, grid: Grid, phi, p=0.0, p_f=0.0, t: float = 0.0, c=None) -> State:
         """A state with zero velocity.
 
         Parameters
@@ -77,6 +83,8 @@ class State:
             :meth:`granflow.model.Model.initial_state` for a lithostatic ``p``).
         t : float
             Initial time [s].
+        c : array_like, optional
+            Material fraction [-] (indicator surface); None: no indicator.
 
         Examples
         --------
@@ -93,13 +101,16 @@ class State:
             p_f=_field("p_f", p_f, shape),
             t=float(t),
             step=0,
+            c=None if c is None else _field("c", c, shape),
         )
 
     def check(self, grid: Grid) -> None:
         """Raise :class:`GranflowInputError` if a field does not fit ``grid``."""
         for name, shape in (("phi", grid.cell_shape), ("p", grid.cell_shape),
-                            ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,))):
+                            ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,)), ("c", grid.cell_shape)):
             a = getattr(self, name)
+            if name == "c" and a is None:
+                continue
             if not isinstance(a, np.ndarray) or a.shape != shape:
                 got = getattr(a, "shape", type(a).__name__)
                 raise GranflowInputError(f"State: {name} must have shape {shape}, got {got}")
@@ -107,7 +118,8 @@ class State:
     def copy(self) -> State:
         """Deep copy (independent arrays)."""
         return State(phi=self.phi.copy(), vel=self.vel.copy(), p=self.p.copy(),
-                     p_f=self.p_f.copy(), t=self.t, step=self.step)
+                     p_f=self.p_f.copy(), t=self.t, step=self.step,
+                     c=None if self.c is None else self.c.copy())
 
     def restore(self, other: State) -> None:
         """Overwrite this state, in place, with a copy of ``other`` (undo a rejected step)."""
@@ -115,10 +127,12 @@ class State:
         self.vel = other.vel.copy()
         self.p = other.p.copy()
         self.p_f = other.p_f.copy()
+        self.c = None if other.c is None else other.c.copy()
         self.t = other.t
         self.step = other.step
 
     def is_finite(self) -> bool:
         """True if every field is finite (the default NaN check of the Simulation)."""
-        return bool(all(np.all(np.isfinite(a)) for a in (self.phi, self.vel, self.p, self.p_f))
+        fields = (self.phi, self.vel, self.p, self.p_f) + (() if self.c is None else (self.c,))
+        return bool(all(np.all(np.isfinite(a)) for a in fields)
                     and np.isfinite(self.t))

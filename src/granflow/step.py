@@ -25,7 +25,8 @@ import scipy.sparse.linalg as spla
 from granflow.errors import GranflowInputError
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
-from granflow.physics.transport import POSITIVITY_CFL, advect, cfl_number, clip_to_bounds
+from granflow.physics.material import C_FULL
+from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.solvers import SaddleHints
 
 
@@ -107,6 +108,12 @@ class Explicit:
     rhs_gas: list
     keep: np.ndarray | None
     region: object | None
+    partial: np.ndarray | None = None
+    """Indicator surface: the partly filled material cells (no dilatancy row, ``p = 0`` in the
+    solve; their ambient share takes up the divergence), else None."""
+    p_fric: np.ndarray | None = None
+    """Indicator surface: the pressure of the yield stress in the partial cells, the discrete
+    lithostatic pressure less ``p_f`` at t^n [Pa] (:meth:`granflow.model.Model.lithostatic_pressure`)."""
 
 
 @dataclass
@@ -130,17 +137,20 @@ class Implicit:
     changes: int
     n_negative_Z: int
     krylov: int
+    dilation: np.ndarray | None = None
+    """Indicator surface: the dilatancy law's rate ``b - C p_fric`` in the partial cells [s^-1]
+    (0 elsewhere), for their material's dilatation in the transport."""
 
 
 def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     """Stage 1: masks, packing of the closure, inertia, gravity, the v1 advection, gas rows."""
     t0 = time.perf_counter()
     phi = state.phi
-    dense = model.dense(phi)
+    dense = model.dense(phi, state.c)
     iso = (model.interface_band(phi, model.isochoric_interface).ravel()
            if model.isochoric_interface else None)
     rho_n = model.inertia_density(phi)
-    f_g, drag = model.gravity_split(phi, state.vel, dt)
+    f_g, drag = model.gravity_split(phi, state.vel, dt, state.c)
     adv = None
     if model.advection is mom.Advection.CONSISTENT:
         rhs_u = rho_n * state.vel / dt + f_g
@@ -158,20 +168,24 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
             rhs_gas = [gas_sys.scaled_rhs(model.material.p_atm)]
     keep = model.velocity_region(phi)
     region = None if keep is None else model.assembler.region(keep)
+    partial, p_fric = None, None
+    if model.indicator:
+        partial = dense & (np.ravel(state.c) < C_FULL)
+        p_fric = np.maximum(model.lithostatic_pressure(phi) - state.p_f, 0.0).ravel()
     tim["assembly"] += time.perf_counter() - t0
-    return Explicit(dense=dense, phi_e=model.effective_packing(phi), iso=iso, rho_n=rho_n, f_g=f_g,
+    return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
-                    rhs_gas=rhs_gas, keep=keep, region=region)
+                    rhs_gas=rhs_gas, keep=keep, region=region, partial=partial, p_fric=p_fric)
 
 
-def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0):
+def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None):
     """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
     (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
     the solid fluxes ``F_k``; the solve uses ``m_k = rho_s phi_f(T(phi, u_k)) + rho_a`` (the
     dual-cell mass after the step) and ``rhs_0 - rho_s A(F_k, u^n)``. At Picard convergence
     ``F_k`` is the flux of the step's own transport, so mass and momentum move together.
-    Returns ``(m_k, (A, div_dual F_k), rhs)``."""
-    moved = advect(model.grid, phi, u_k, dt, model.material.phi_max, model.phi_transport)
+    Returns ``(m_k, (A, div_dual F_k), rhs)``; ``c`` the material fraction (indicator surface)."""
+    moved = model.transport(phi, u_k, dt, c)
     A = mt.momentum_flux_divergence(model.grid, moved.flux_x, moved.flux_z, vel_n)
     div_dual = mt.dual_mass_divergence(model.ops, moved.flux_x, moved.flux_z)
     return model.inertia_density(moved.phi), (A, div_dual), rhs_0 - model.material.rho_s * A
@@ -204,7 +218,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     u_k = state.vel.copy()
     p_k = np.maximum(state.p.ravel(), 0.0)
     p_f_new = state.p_f.ravel()
-    free = np.zeros_like(dense)  # every dense cell starts active; p < 0 frees it
+    # every dense cell starts active (p < 0 frees it) but the partial cells of the indicator surface
+    free = np.zeros_like(dense) if ex.partial is None else ex.partial.copy()
     if model.linear_solver is not None:
         model.linear_solver.begin_step()
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
@@ -213,8 +228,9 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     for sweeps in range(1, model.picard.max_sweeps + 1):
         t0 = time.perf_counter()
         if consistent:
-            rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u)
-        coef = model.coefficients(ex.phi_e, p_k, ops.strain_rate_norm(u_k), dt, dense)
+            rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u, state.c)
+        p_eval = p_k if ex.partial is None else np.where(ex.partial, ex.p_fric, p_k)
+        coef = model.coefficients(ex.phi_e, p_eval, ops.strain_rate_norm(u_k), dt, dense)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0
             coef.C[ex.iso] = 0.0
@@ -242,6 +258,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         eta_last = (coef.eta_c, eta_n)
         to_free = act & (p_new < 0.0)
         to_act = free & (ops.div @ u_new < coef.b)
+        if ex.partial is not None:
+            to_act &= ~ex.partial
         n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
         changes += n_change
         free = (free & ~to_act) | to_free
@@ -256,9 +274,11 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         raise StepFailed(f"Picard diverged (relative increment {rel:.3g})", sweeps)
     if ex.gas_sys is not None and np.any(p_f_new <= -model.material.p_atm):
         raise StepFailed("p_f below vacuum (p_f <= -p_atm)", sweeps)
+    dilation = (None if ex.partial is None
+                else np.where(ex.partial, coef.b - coef.C * ex.p_fric, 0.0))
     return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
                     rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
-                    changes=changes, n_negative_Z=n_negz, krylov=krylov)
+                    changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation)
 
 
 def energy_terms(model, state, dt: float, ex: Explicit, im: Implicit) -> dict:
@@ -286,9 +306,11 @@ class Transported:
     cfl: float
     wrapped: float
     held_back: float
+    c: np.ndarray | None = None
+    """Material fraction at t^{n+1} (indicator surface), else None."""
 
 
-def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int) -> Transported:
+def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int, dilation=None) -> Transported:
     """Stage 4: phi transport with ``u^{n+1}``; CFL, finiteness and bound checks (module
     docstring of :mod:`granflow.model`, step 3)."""
     g, mat = model.grid, model.material
@@ -296,7 +318,7 @@ def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int) -> T
     cfl = cfl_number(g, u_new, dt)
     if cfl > POSITIVITY_CFL:
         raise StepFailed(f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps)
-    moved = advect(g, state.phi, u_new, dt, mat.phi_max, model.phi_transport)
+    moved = model.transport(state.phi, u_new, dt, state.c, dilation)
     phi_new = moved.phi
     wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0
     if not np.all(np.isfinite(phi_new)):
@@ -311,7 +333,8 @@ def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int) -> T
     if bounds.min_before < -mat.phi_max * model.phi_tolerance:
         where = location(g, np.unravel_index(int(np.argmin(phi_new)), phi_new.shape))
         raise StepFailed(f"phi = {bounds.min_before:.4g} < 0 beyond the tolerance {where}", sweeps)
-    return Transported(phi=phi_clip, bounds=bounds, cfl=cfl, wrapped=wrapped, held_back=moved.held_back)
+    return Transported(phi=phi_clip, bounds=bounds, cfl=cfl, wrapped=wrapped, held_back=moved.held_back,
+                       c=getattr(moved, "c", None))
 
 
 def location(grid, index) -> str:

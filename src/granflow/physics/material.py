@@ -1,0 +1,320 @@
+"""Transport of the material indicator and of the grains inside it (scheme v2, issue 12;
+``numerics.surface = "indicator"``).
+
+Two fields on the cells: the **material fraction** ``c`` in [0, 1] (the volume fraction of the cell
+that the granular material occupies, a volume-of-fluid indicator) and the **solid fraction**
+``phi`` (grain volume per cell volume, the field of paper eq. syst1b, as everywhere else in
+granflow). The packing *inside* the material is ``psi = phi / c`` (the paper's phi, which the
+closure and the dilatancy law see); a cell with ``c > C_MIN`` is material, with its weight, its
+pressure and its strength, however little of it is filled.
+
+Equations. The material moves with the granular velocity and dilates with it, and the grains move
+with the material:
+
+    d_t c + div(c u) = c div u,        d_t phi + div(phi u) = 0   (eq. syst1b),
+
+so that ``D_t psi = -psi div u`` inside the material (eq. syst1b in Lagrangian form). In the
+ambient (``c = 0``) the source vanishes and the velocity's divergence is not constrained.
+
+Scheme (finite volumes, face velocities frozen over the step, one forward-Euler step: the
+donor-acceptor fractions are geometric, and the average of two Runge-Kutta stages would smear the
+surface they keep sharp; the MUSCL-minmod packing is TVD under forward Euler for CFL <= 1/2):
+
+* volume fluxes ``F_c = c_f u`` with donor-acceptor fractions ``c_f`` (:func:`volume_fluxes`,
+  Hirt & Nichols 1981 with Youngs' normal: a geometric, one-dimensional reconstruction per face,
+  so a full cell that draws material from a partial one receives material, not ambient, and a
+  surface stays within one or two cells), outflows limited so that ``c >= 0``;
+* solid fluxes ``F_phi = psi_f F_c``: the grains cross a face inside the material volume that
+  crosses it, with ``psi_f`` the upwind MUSCL-minmod value of ``psi`` (slopes taken only between
+  material cells). So ``phi`` is conserved to round-off (a flux form) and a cell never loses more
+  grains than it holds (``psi_f F_c <= psi c`` on outflow);
+* ``c* = (c - dt div F_c) / (1 - dt div u)`` in full cells (``c >= C_FULL``; the source implicit: a
+  full cell stays exactly full, ``1 - dt div u`` over ``1 - dt div u``); in a partial cell the
+  ambient share of the cell takes up the cell's divergence, so the source uses the material's own
+  rate, the closure's dilatancy law at the cell's friction pressure (``dilation``), or none;
+  a partial cell's remaining room is passed on when inflow overfills it
+  (:func:`overfill_correction`).
+
+Bounds. The solid fluxes are limited so that ``phi <= phi_max``
+(:func:`granflow.physics.transport.limit_to_upper_bound`). The indicator is then made consistent
+with the grains it holds, ``phi / phi_max <= c <= 1`` (the material occupies at least the volume
+its grains fill at the largest packing), ``c = 0`` where no grains are left; that adjustment
+changes the material *volume*, never the grain mass, and is reported
+(:attr:`MaterialTransport.adjusted_volume`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.grid import Grid
+from granflow.physics.interface_capturing import limit_to_lower_bound
+from granflow.physics.transport import (
+    HALF,
+    face_velocities,
+    flux_divergence,
+    limit_to_upper_bound,
+    minmod,
+)
+
+C_MIN = 1e-6
+"""Cells with ``c > C_MIN`` are material [-]."""
+C_FULL = 1.0 - 1e-9
+"""Cells with ``c >= C_FULL`` are full of material [-]: only there does the material fill the cell,
+so only there is the cell's velocity divergence the material's (the dilatancy row and the
+dilatation source of ``c``); a partial cell's remaining volume is ambient, which takes up any
+divergence."""
+PHI_EMPTY = 1e-14
+"""A cell with fewer grains than this (solid fraction) holds no material [-]."""
+MIN_DILATION_FACTOR = 0.5
+"""Floor of ``1 - dt div u`` in the implicit source (a cell cannot more than double its material
+volume in a stage; only reached by a cell that became material in the stage)."""
+
+
+@dataclass(frozen=True)
+class MaterialTransport:
+    """Outcome of :func:`advect_material`.
+
+    Attributes
+    ----------
+    c : ndarray, (nx, nz)
+        Material fraction at t^{n+1} [-].
+    phi : ndarray, (nx, nz)
+        Solid fraction at t^{n+1} [-] (not clipped: ``phi - phi^n = -dt div F``).
+    flux_x, flux_z : ndarray
+        Time-averaged solid fluxes of the step [m s^-1] (as
+        :class:`granflow.physics.transport.TransportResult`).
+    held_back : float
+        Solid volume per unit width [m^2] that the upper-bound limiter kept in donor cells.
+    adjusted_volume : float
+        Material volume per unit width [m^2] added or removed by the consistency bounds
+        ``phi/phi_max <= c <= 1`` (absolute sum; no grain mass moves).
+    """
+
+    c: np.ndarray
+    phi: np.ndarray
+    flux_x: np.ndarray
+    flux_z: np.ndarray
+    held_back: float = 0.0
+    adjusted_volume: float = 0.0
+
+
+def packing(c, phi) -> np.ndarray:
+    """Packing inside the material ``psi = phi / c`` [-] (0 outside the material, ``c <= C_MIN``)."""
+    c = np.asarray(c, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    material = c > C_MIN
+    return np.where(material, phi / np.where(material, c, 1.0), 0.0)
+
+
+def material_fraction(phi, packing_of_material) -> np.ndarray:
+    """Material fraction of a solid fraction field whose material packing is known:
+    ``c = min(phi / psi, 1)`` where ``phi > PHI_EMPTY``, else 0 [-]."""
+    phi = np.asarray(phi, dtype=float)
+    psi = np.asarray(packing_of_material, dtype=float)
+    full = (phi > PHI_EMPTY) & (psi > 0)
+    return np.where(full, np.minimum(phi / np.where(full, psi, 1.0), 1.0), 0.0)
+
+
+def _material_slopes(q: np.ndarray, material: np.ndarray, axis: int, periodic: bool) -> np.ndarray:
+    """Minmod slopes of ``q`` along ``axis``, zero where a neighbour (or the cell) is not material
+    and at the walls."""
+    if periodic:
+        lo, hi = np.roll(q, 1, axis=axis), np.roll(q, -1, axis=axis)
+        m_lo, m_hi = np.roll(material, 1, axis=axis), np.roll(material, -1, axis=axis)
+        slope = minmod(q - lo, hi - q)
+    else:
+        d = np.diff(q, axis=axis)
+        zero = np.zeros_like(np.take(d, [0], axis=axis))
+        slope = minmod(np.concatenate([zero, d], axis=axis), np.concatenate([d, zero], axis=axis))
+        edge = np.zeros_like(np.take(material, [0], axis=axis))
+        n = q.shape[axis]
+        m_lo = np.concatenate([edge, np.take(material, np.arange(n - 1), axis=axis)], axis=axis)
+        m_hi = np.concatenate([np.take(material, np.arange(1, n), axis=axis), edge], axis=axis)
+    return np.where(material & m_lo & m_hi, slope, 0.0)
+
+
+def solid_fluxes(grid: Grid, psi, material, fcx, fcz) -> tuple[np.ndarray, np.ndarray]:
+    """``psi_f F_c`` on every face [m s^-1]: ``psi_f`` the upwind MUSCL-minmod face value of the
+    packing (slopes between material cells only), upwind by the sign of the volume flux."""
+    psi = np.asarray(psi, dtype=float)
+    sx = _material_slopes(psi, material, 0, grid.periodic_x)
+    sz = _material_slopes(psi, material, 1, False)
+    hi_x, lo_x = psi + HALF * sx, psi - HALF * sx
+    hi_z, lo_z = psi + HALF * sz, psi - HALF * sz
+    gx, gz = np.zeros_like(fcx), np.zeros_like(fcz)
+    if grid.periodic_x:  # x-face i between cells i-1 (mod nx) and i; fcx[nx] is the image
+        left, right = np.roll(hi_x, 1, axis=0), lo_x
+        f = fcx[:-1, :]
+        gx[:-1, :] = np.where(f > 0.0, f * left, f * right)
+        gx[-1, :] = gx[0, :]
+    else:
+        f = fcx[1:-1, :]
+        gx[1:-1, :] = np.where(f > 0.0, f * hi_x[:-1, :], f * lo_x[1:, :])
+    f = fcz[:, 1:-1]
+    gz[:, 1:-1] = np.where(f > 0.0, f * hi_z[:, :-1], f * lo_z[:, 1:])
+    return gx, gz
+
+
+def consistent_bounds(c, phi, phi_max: float, cell_volume: float) -> tuple[np.ndarray, float]:
+    """``c`` made consistent with the grains it holds (module docstring, "Bounds"): returns the
+    adjusted ``c`` and the material volume changed [m^2 per unit width]."""
+    c = np.asarray(c, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    new = np.clip(c, np.maximum(phi, 0.0) / phi_max, 1.0)
+    new = np.where(phi > PHI_EMPTY, new, 0.0)
+    return new, cell_volume * float(np.sum(np.abs(new - c)))
+
+
+def _shifted(q: np.ndarray, k: int, axis: int, periodic: bool) -> np.ndarray:
+    """``q`` at the cell ``k`` steps along ``axis`` (``q_{i+k}``); beyond a wall, the wall cell."""
+    if periodic:
+        return np.roll(q, -k, axis=axis)
+    n = q.shape[axis]
+    return np.take(q, np.clip(np.arange(n) + k, 0, n - 1), axis=axis)
+
+
+def interface_normal(c: np.ndarray, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Youngs' normal ``(n_x, n_z)`` (unnormalised, ``-grad c`` from the 3 x 3 stencil with
+    weights 1, 2, 1; Youngs 1982) in grid-index units."""
+    cx = _shifted(c, 1, 0, periodic) - _shifted(c, -1, 0, periodic)
+    cz = _shifted(c, 1, 1, False) - _shifted(c, -1, 1, False)
+    nx = -(_shifted(cx, 1, 1, False) + 2.0 * cx + _shifted(cx, -1, 1, False))
+    nz = -(_shifted(cz, 1, 0, periodic) + 2.0 * cz + _shifted(cz, -1, 0, periodic))
+    return nx, nz
+
+
+def donor_acceptor_fraction(c_d, c_a, c_u, along, courant):
+    """Material fraction of the volume that crosses a face in a stage (Hirt & Nichols 1981,
+    J. Comput. Phys. 39, 201; one-dimensional geometric (SLIC) reconstruction):
+
+    * interface across the flow (``along``: the normal is mostly along it): the donor's material
+      sits beside its fuller neighbour; towards the acceptor (``c_a >= c_u``) the first
+      ``min(courant, c_d)`` of the swept width is material, away from it only
+      ``max(0, courant - (1 - c_d))``;
+    * interface along the flow: the donor's own fraction ``c_d`` (exact for a sliding layer).
+
+    ``courant = |u| dt / h`` per face; returns ``c_f`` in [0, 1] (``c_f u`` the volume flux)."""
+    safe = np.maximum(courant, np.finfo(float).tiny)
+    near = np.where(courant > 0, np.minimum(courant, c_d) / safe, np.minimum(c_d / np.finfo(float).eps, 1.0))
+    far = np.where(courant > 0, np.maximum(courant - (1.0 - c_d), 0.0) / safe, np.where(c_d >= 1.0, 1.0, 0.0))
+    cross = np.where(c_a >= c_u, near, far)
+    return np.clip(np.where(along, cross, c_d), 0.0, 1.0)
+
+
+def volume_fluxes(grid: Grid, c, u, w, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Volume fluxes ``c_f u`` [m s^-1] of the material on every face (walls: 0), with the
+    donor-acceptor fractions of :func:`donor_acceptor_fraction` and Youngs' normal of the donor."""
+    c = np.asarray(c, dtype=float)
+    per = grid.periodic_x
+    nx, nz = interface_normal(c, per)
+    fx, fz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
+    # x-faces: face i between cells i-1 and i (periodic: i-1 mod nx; image column fx[nx] = fx[0])
+    lo = [np.roll(q, 1, axis=0) for q in (c, nx, nz)] if per else [q[:-1] for q in (c, nx, nz)]
+    hi = [c, nx, nz] if per else [q[1:] for q in (c, nx, nz)]
+    lo2 = np.roll(c, 2, axis=0) if per else _shifted(c, -1, 0, False)[:-1]
+    hi2 = np.roll(c, -1, axis=0) if per else _shifted(c, 1, 0, False)[1:]
+    ui = u[:-1] if per else u[1:-1]
+    pos = ui > 0.0
+    c_d = np.where(pos, lo[0], hi[0])
+    c_a = np.where(pos, hi[0], lo[0])
+    c_u = np.where(pos, lo2, hi2)
+    n_along = np.abs(np.where(pos, lo[1], hi[1])) >= np.abs(np.where(pos, lo[2], hi[2]))
+    frac = donor_acceptor_fraction(c_d, c_a, c_u, n_along, np.abs(ui) * dt / grid.dx)
+    if per:
+        fx[:-1] = frac * ui
+        fx[-1] = fx[0]
+    else:
+        fx[1:-1] = frac * ui
+    # z-faces: face j between cells j-1 and j
+    wi = w[:, 1:-1]
+    pos = wi > 0.0
+    below, above = c[:, :-1], c[:, 1:]
+    below2 = _shifted(c, -1, 1, False)[:, :-1]
+    above2 = _shifted(c, 1, 1, False)[:, 1:]
+    c_d = np.where(pos, below, above)
+    c_a = np.where(pos, above, below)
+    c_u = np.where(pos, below2, above2)
+    n_along = (np.abs(np.where(pos, nz[:, :-1], nz[:, 1:])) > np.abs(np.where(pos, nx[:, :-1], nx[:, 1:])))
+    fz[:, 1:-1] = donor_acceptor_fraction(c_d, c_a, c_u, n_along, np.abs(wi) * dt / grid.dz) * wi
+    return fx, fz
+
+
+def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Volume fluxes with the overfill of partial cells passed on downstream.
+
+    A partial cell's material can grow within a stage by more than the room left in it (what
+    enters through one face pushes its material across the cell); the donor-acceptor fraction of
+    its outflow faces, taken from the cell at the start of the stage, does not see that. The
+    excess ``c - dt div F - 1 > 0`` leaves through the cell's outflow faces, shared in proportion
+    to their spare capacity ``(1 - c_f) |u| dt / h`` and at most that (fluxes only grow where
+    the velocity leaves the cell, so the other bounds are kept). Returns ``(fx, fz)`` (copies)."""
+    fx, fz = fx.copy(), fz.copy()
+    excess = np.maximum(c - dt * flux_divergence(grid, fx, fz) - 1.0, 0.0)
+    if not np.any(excess > 0.0):
+        return fx, fz
+    cx, cz = dt / grid.dx, dt / grid.dz
+    spare_e = np.where(u[1:] > 0, cx * np.maximum(u[1:] - fx[1:], 0.0), 0.0)
+    spare_w = np.where(u[:-1] < 0, cx * np.maximum(fx[:-1] - u[:-1], 0.0), 0.0)
+    spare_n = np.where(w[:, 1:] > 0, cz * np.maximum(w[:, 1:] - fz[:, 1:], 0.0), 0.0)
+    spare_s = np.where(w[:, :-1] < 0, cz * np.maximum(fz[:, :-1] - w[:, :-1], 0.0), 0.0)
+    total = spare_e + spare_w + spare_n + spare_s
+    share = np.divide(np.minimum(excess, total), total, out=np.zeros_like(total), where=total > 0)
+    add_e, add_w = share * spare_e / cx, share * spare_w / cx
+    fx[1:] += add_e
+    fx[:-1] -= add_w
+    if grid.periodic_x:  # fx[0] and the image fx[nx] are one face: both get both increments
+        fx[0] += add_e[-1]
+        fx[-1] -= add_w[0]
+    fz[:, 1:] += share * spare_n / cz
+    fz[:, :-1] -= share * spare_s / cz
+    return fx, fz
+
+
+def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None):
+    """One forward-Euler stage: ``(c*, phi*, F_c, F_phi, held)`` (module docstring)."""
+    material, full = c > C_MIN, c >= C_FULL
+    fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
+    fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
+    gx, gz = solid_fluxes(grid, packing(c, phi), material, fcx, fcz)
+    gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
+    c_new = c - dt * flux_divergence(grid, fcx, fcz)
+    factor = np.maximum(1.0 - dt * div_u, MIN_DILATION_FACTOR)
+    if dilation is not None:  # partial cells dilate at the closure's rate
+        partial = material & ~full
+        factor = np.where(partial, np.maximum(1.0 - dt * dilation, MIN_DILATION_FACTOR), factor)
+        full = full | partial
+    c_new = np.where(full, c_new / factor, c_new)
+    return c_new, phi - dt * flux_divergence(grid, gx, gz), (gx, gz), held
+
+
+def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation=None) -> MaterialTransport:
+    """One step of the material indicator and the grains (module docstring) with the
+    frozen face velocities ``vel`` [m s^-1], ``dt`` [s] (CFL <= 1/2); ``dilation`` (nx, nz)
+    [s^-1], optional: the dilatation rate of the material in the partial cells (the closure's
+    law at their friction pressure), else they are carried without dilating.
+
+    Examples
+    --------
+    A full, translated slab stays full and keeps its grains:
+
+    >>> from granflow.grid import Grid
+    >>> g = Grid(nx=8, nz=2, Lx=1.0, Lz=0.25)
+    >>> u = np.zeros(g.xface_shape); u[1:-1] = 1.0
+    >>> vel = g.pack_velocity(u, np.zeros(g.zface_shape))
+    >>> c = np.zeros(g.cell_shape); c[2:4] = 1.0
+    >>> out = advect_material(g, c, 0.55 * c, vel, 0.05, 0.6)
+    >>> bool(np.isclose(out.phi.sum(), 0.55 * c.sum(), rtol=0, atol=1e-14)), float(out.c.max()) <= 1.0
+    (True, True)
+    """
+    c = np.asarray(c, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    u, w = face_velocities(grid, vel)
+    div_u = (np.diff(u, axis=0) / grid.dx + np.diff(w, axis=1) / grid.dz)
+    if dilation is not None:
+        dilation = np.asarray(dilation, dtype=float).reshape(grid.cell_shape)
+    c1, phi_new, (gx, gz), held = _stage(grid, c, phi, u, w, div_u, dt, phi_max, dilation)
+    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, grid.cell_volume)
+    return MaterialTransport(c=c_new, phi=phi_new, flux_x=gx, flux_z=gz,
+                             held_back=held, adjusted_volume=adjusted)
