@@ -113,3 +113,81 @@ def test_model_state_carries_c_and_refuses_a_state_without_it():
         model.advance(State.at_rest(g, phi), 1e-4)
     with pytest.raises(GranflowInputError, match="surface"):
         Model(g, make_closure("drucker_prager"), surface="vof")
+
+
+@pytest.mark.parametrize("c_top", [0.2, 0.5, 0.75, 1.0])
+def test_reconstructed_weights_put_p_zero_at_the_surface(c_top):
+    # A column of full cells under one partial cell: the discrete hydrostatic pressure of the
+    # reconstructed face weights (Grad p = f_g on the z-faces, p = 0 in thin and empty cells) is
+    # rho_s psi |g| (z_s - z_c) at every cell centre below the surface z_s -- computed here by
+    # integrating the face weights independently of surface_lithostatic.
+    from granflow.physics.material import C_ROW, face_solid_fraction, surface_lithostatic
+
+    nz, dz, psi, weight = 8, 0.1, 0.57, 2500.0 * 9.81 * 0.1
+    c = np.zeros((1, nz))
+    c[0, :5] = 1.0
+    c[0, 5] = c_top
+    phi = psi * c
+    f = face_solid_fraction(c, phi)[0]            # interior faces 1 .. nz-1
+    p = np.zeros(nz)
+    rows = np.flatnonzero(c[0] >= C_ROW)
+    for j in rows[::-1]:                          # from the top row cell down
+        p[j] = (p[j + 1] if j + 1 in rows else 0.0) + weight * f[j]
+    z_c = (np.arange(nz) + 0.5) * dz
+    z_s = (5 + c_top) * dz
+    exact = 2500.0 * 9.81 * psi * (z_s - z_c)
+    assert np.allclose(p[rows], exact[rows], rtol=1e-12)
+    lith = surface_lithostatic(c, phi, weight)[0]
+    assert np.allclose(lith[rows], exact[rows], rtol=1e-12)
+    # the column's grains are all weighed: faces + the wall faces' halves
+    assert f.sum() + psi * 0.5 == pytest.approx(phi.sum(), rel=1e-12)
+
+
+def test_inclined_layer_from_rest_becomes_steady_on_bagnold(tmp_path):
+    # Issue 12 acceptance 2 (smoke, 25 deg, 20 cells over h): a mu(I) layer released from rest at
+    # phi_max with the default numerics and the indicator surface dilates to phi_eq(I_theta) and
+    # becomes steady on Bagnold's surface velocity (analytic, cases/inclined_layer.py).
+    from granflow.cases import CASES
+    from granflow.cases.inclined_layer import bagnold, surface_velocity
+    from granflow.config import load_case
+
+    case = tmp_path / "rest.toml"
+    case.write_text("""
+[case]
+name = "inclined_layer"
+[setup]
+h0 = 0.01
+start = "rest"
+[material]
+d = 5e-4
+rho_s = 2500.0
+phi_max = 0.6
+delta_phi = 0.2
+[closure]
+name = "mu_i"
+[gravity]
+slope_deg = 25.0
+[numerics]
+surface = "indicator"
+[grid]
+periodic_x = true
+nx = 4
+nz = 26
+Lx = 1.0
+Lz = 0.013
+[time]
+stop_time = 12.0
+dt_max = 0.05
+""")
+    cfg = load_case(case)
+    sim = CASES.get("inclined_layer").setup(cfg)
+    record = []
+    while sim.state.t < 12.0 - 1e-9:
+        sim.step()
+        record.append((sim.state.t, surface_velocity(sim)))
+    t, u = np.array(record).T
+    ref = bagnold(cfg).surface_velocity
+    assert abs(u[-1] / ref - 1.0) < 0.02, (u[-1], ref)
+    late = u[t >= t[-1] - 2.0]
+    assert np.ptp(late) / u[-1] < 1e-3, "not steady over the last 2 s"
+    assert sim.state.phi.sum() == pytest.approx(0.6 * 20 * 4, rel=1e-12)

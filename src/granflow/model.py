@@ -103,7 +103,15 @@ from granflow.operators import Operators
 from granflow.physics import momentum as mom
 from granflow.physics.coupling import GasCoupling
 from granflow.physics.dilatancy import ap_factor
-from granflow.physics.material import PHI_EMPTY, C_MIN, advect_material, material_fraction, packing
+from granflow.physics.material import (
+    C_MIN,
+    PHI_EMPTY,
+    advect_material,
+    face_solid_fraction,
+    material_fraction,
+    packing,
+    surface_lithostatic,
+)
 from granflow.physics.pore_pressure import GasLaw
 from granflow.physics.transport import (
     PhiScheme,
@@ -155,8 +163,10 @@ class Model:
         ``"threshold"`` (default, v1: ``phi < ambient.phi_c`` is ambient) or ``"indicator"``
         (scheme v2: a transported material fraction ``c``, :mod:`granflow.physics.material`; the
         state carries ``c``, every material cell is dense and the closure is evaluated at the
-        packing ``phi / c``; ``interface_packing``, ``isochoric_interface``, ``phi_transport``
-        and ``ambient.phi_c`` are then not used).
+        packing ``phi / c``; the weight of a z-face is the reconstructed material of its dual
+        cell (:meth:`face_fraction`), so ``p = 0`` sits at the surface; ``interface_packing``,
+        ``isochoric_interface``, ``consistent_gravity``, ``phi_transport`` and ``ambient.phi_c``
+        are then not used).
     phi_transport : PhiScheme or str
         Face values of the phi transport: ``"muscl"`` (default, v1: MUSCL-minmod) or ``"sharp"``
         (MUSCL-THINC-BVD: the free surface stays within 1-2 cells,
@@ -243,8 +253,8 @@ class Model:
         except ValueError:
             raise GranflowInputError(f"Model: unknown surface {surface!r}; expected one of "
                                      f"{[a.value for a in Surface]}") from None
-        if self.surface is Surface.INDICATOR:
-            self.isochoric_interface, self.interface_packing = 0, False
+        if self.surface is Surface.INDICATOR:  # the reconstructed surface replaces these
+            self.isochoric_interface, self.interface_packing, self.consistent_gravity = 0, False, False
         self.gravity_blend_velocity = (self.eps * grid.Lz if gravity_blend_velocity is None
                                        else float(gravity_blend_velocity))
         if not self.gravity_blend_velocity > 0:
@@ -364,11 +374,17 @@ class Model:
             return self.material.rho_s * np.maximum(phi_f, 0.0) + self.ambient.rho_a
         return mom.face_density(self.ops, phi, self.material.rho_s, self.ambient.rho_a)
 
-    def lithostatic_pressure(self, phi) -> np.ndarray:
+    def lithostatic_pressure(self, phi, c=None) -> np.ndarray:
         """Discrete hydrostatic p [Pa], shape (nx, nz): the p with ``Grad p = f_g`` on the z-faces
         of every column (trapezoidal sum of ``phi rho_s |g_z| dz`` from the top), zero in the
-        ambient. For a uniform layer filling whole cells it equals ``phi rho_s |g_z| (H - z)``."""
+        ambient. For a uniform layer filling whole cells it equals ``phi rho_s |g_z| (H - z)``.
+        Indicator surface: the hydrostatic pressure of the reconstructed material
+        (:func:`granflow.physics.material.surface_lithostatic`; ``c`` defaults to
+        :meth:`material_of`), ``p = 0`` at the surface."""
         phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        if self.indicator:
+            c = self.material_of(phi) if c is None else np.asarray(c, dtype=float).reshape(phi.shape)
+            return surface_lithostatic(c, phi, self.material.rho_s * abs(self.gravity[1]) * self.grid.dz)
         upper = np.concatenate([phi[:, 1:], np.zeros((phi.shape[0], 1))], axis=1)
         face = 0.5 * (phi + upper) * self.material.rho_s * abs(self.gravity[1]) * self.grid.dz
         p = np.cumsum(face[:, ::-1], axis=1)[:, ::-1]
@@ -390,6 +406,19 @@ class Model:
         p_f = np.where(self.dense(phi).reshape(self.grid.cell_shape), p_f, 0.0)
         p = np.maximum(self.lithostatic_pressure(phi) - p_f, 0.0)
         return State.at_rest(self.grid, phi, p=p, p_f=p_f, c=self.material_of(phi))
+
+    def face_fraction(self, phi, c=None) -> np.ndarray:
+        """Solid fraction weighed at the velocity unknowns when they are at rest [-]: the centred
+        mean of the two cells, and with the indicator surface on the interior z-faces the grains
+        of the reconstructed material in the face's dual cell
+        (:func:`granflow.physics.material.face_solid_fraction`), so that ``p = 0`` sits at the
+        surface."""
+        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        out = self.ops.cell_to_face @ phi.ravel()
+        if self.indicator and c is not None:
+            c = np.asarray(c, dtype=float).reshape(phi.shape)
+            out[self.grid.w_slice] = face_solid_fraction(c, phi).ravel()  # interior z-faces
+        return out
 
     def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
         """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
@@ -420,7 +449,7 @@ class Model:
         vel = np.asarray(vel, dtype=float)
         gvec = np.empty(g.n_unknowns)
         gvec[g.u_slice], gvec[g.w_slice] = self.gravity
-        centred = ops.cell_to_face @ phi.ravel()
+        centred = self.face_fraction(phi, c)
         if not self.consistent_gravity:
             return rho_s * gvec * centred, np.zeros(g.n_unknowns)
         out = self.transport(phi, vel, dt, c)

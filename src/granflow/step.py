@@ -25,7 +25,7 @@ import scipy.sparse.linalg as spla
 from granflow.errors import GranflowInputError
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
-from granflow.physics.material import C_FULL
+from granflow.physics.material import C_ROW
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.solvers import SaddleHints
 
@@ -108,12 +108,14 @@ class Explicit:
     rhs_gas: list
     keep: np.ndarray | None
     region: object | None
-    partial: np.ndarray | None = None
-    """Indicator surface: the partly filled material cells (no dilatancy row, ``p = 0`` in the
-    solve; their ambient share takes up the divergence), else None."""
+    thin: np.ndarray | None = None
+    """Indicator surface: the thin material cells, ``c < C_ROW`` (no dilatancy row, ``p = 0`` in the
+    solve: their centre lies above the surface; their ambient share takes up the divergence),
+    else None."""
     p_fric: np.ndarray | None = None
-    """Indicator surface: the pressure of the yield stress in the partial cells, the discrete
-    lithostatic pressure less ``p_f`` at t^n [Pa] (:meth:`granflow.model.Model.lithostatic_pressure`)."""
+    """Indicator surface: the pressure of the yield stress in the thin cells, the discrete
+    lithostatic pressure at the middle of their material less ``p_f`` at t^n [Pa]
+    (:meth:`granflow.model.Model.lithostatic_pressure`)."""
 
 
 @dataclass
@@ -138,7 +140,7 @@ class Implicit:
     n_negative_Z: int
     krylov: int
     dilation: np.ndarray | None = None
-    """Indicator surface: the dilatancy law's rate ``b - C p_fric`` in the partial cells [s^-1]
+    """Indicator surface: the dilatancy law's rate ``b - C p_fric`` in the thin cells [s^-1]
     (0 elsewhere), for their material's dilatation in the transport."""
 
 
@@ -168,14 +170,14 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
             rhs_gas = [gas_sys.scaled_rhs(model.material.p_atm)]
     keep = model.velocity_region(phi)
     region = None if keep is None else model.assembler.region(keep)
-    partial, p_fric = None, None
+    thin, p_fric = None, None
     if model.indicator:
-        partial = dense & (np.ravel(state.c) < C_FULL)
-        p_fric = np.maximum(model.lithostatic_pressure(phi) - state.p_f, 0.0).ravel()
+        thin = dense & (np.ravel(state.c) < C_ROW)
+        p_fric = np.maximum(model.lithostatic_pressure(phi, state.c) - state.p_f, 0.0).ravel()
     tim["assembly"] += time.perf_counter() - t0
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
-                    rhs_gas=rhs_gas, keep=keep, region=region, partial=partial, p_fric=p_fric)
+                    rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric)
 
 
 def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None):
@@ -218,8 +220,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     u_k = state.vel.copy()
     p_k = np.maximum(state.p.ravel(), 0.0)
     p_f_new = state.p_f.ravel()
-    # every dense cell starts active (p < 0 frees it) but the partial cells of the indicator surface
-    free = np.zeros_like(dense) if ex.partial is None else ex.partial.copy()
+    # every dense cell starts active (p < 0 frees it) but the thin cells of the indicator surface
+    free = np.zeros_like(dense) if ex.thin is None else ex.thin.copy()
     if model.linear_solver is not None:
         model.linear_solver.begin_step()
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
@@ -229,7 +231,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         t0 = time.perf_counter()
         if consistent:
             rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u, state.c)
-        p_eval = p_k if ex.partial is None else np.where(ex.partial, ex.p_fric, p_k)
+        p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
         coef = model.coefficients(ex.phi_e, p_eval, ops.strain_rate_norm(u_k), dt, dense)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0
@@ -258,8 +260,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         eta_last = (coef.eta_c, eta_n)
         to_free = act & (p_new < 0.0)
         to_act = free & (ops.div @ u_new < coef.b)
-        if ex.partial is not None:
-            to_act &= ~ex.partial
+        if ex.thin is not None:
+            to_act &= ~ex.thin
         n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
         changes += n_change
         free = (free & ~to_act) | to_free
@@ -274,8 +276,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         raise StepFailed(f"Picard diverged (relative increment {rel:.3g})", sweeps)
     if ex.gas_sys is not None and np.any(p_f_new <= -model.material.p_atm):
         raise StepFailed("p_f below vacuum (p_f <= -p_atm)", sweeps)
-    dilation = (None if ex.partial is None
-                else np.where(ex.partial, coef.b - coef.C * ex.p_fric, 0.0))
+    dilation = (None if ex.thin is None
+                else np.where(ex.thin, coef.b - coef.C * ex.p_fric, 0.0))
     return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
                     rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
                     changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation)

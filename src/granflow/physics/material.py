@@ -28,10 +28,12 @@ surface they keep sharp; the MUSCL-minmod packing is TVD under forward Euler for
   crosses it, with ``psi_f`` the upwind MUSCL-minmod value of ``psi`` (slopes taken only between
   material cells). So ``phi`` is conserved to round-off (a flux form) and a cell never loses more
   grains than it holds (``psi_f F_c <= psi c`` on outflow);
-* ``c* = (c - dt div F_c) / (1 - dt div u)`` in full cells (``c >= C_FULL``; the source implicit: a
-  full cell stays exactly full, ``1 - dt div u`` over ``1 - dt div u``); in a partial cell the
-  ambient share of the cell takes up the cell's divergence, so the source uses the material's own
-  rate, the closure's dilatancy law at the cell's friction pressure (``dilation``), or none;
+* ``c* = (c - dt div F_c) / (1 - dt div u)`` in the cells with a dilatancy row (``c >= C_ROW``;
+  the source implicit: a full cell stays exactly full, ``1 - dt div u`` over ``1 - dt div u``;
+  in a partial one, with the velocity linear across the cell, the surface moves at the velocity
+  at its height); in a thin cell (``c < C_ROW``) the ambient share of the cell takes up the
+  cell's divergence, so the source uses the material's own rate, the closure's dilatancy law at
+  the cell's friction pressure (``dilation``), or none;
   a partial cell's remaining room is passed on when inflow overfills it
   (:func:`overfill_correction`).
 
@@ -61,10 +63,17 @@ from granflow.physics.transport import (
 C_MIN = 1e-6
 """Cells with ``c > C_MIN`` are material [-]."""
 C_FULL = 1.0 - 1e-9
-"""Cells with ``c >= C_FULL`` are full of material [-]: only there does the material fill the cell,
-so only there is the cell's velocity divergence the material's (the dilatancy row and the
-dilatation source of ``c``); a partial cell's remaining volume is ambient, which takes up any
-divergence."""
+"""Cells with ``c >= C_FULL`` are full of material [-] (the others with ``c > C_MIN`` are the
+partial cells of the surface, counted in the tests' sharpness checks)."""
+C_ROW = 0.5
+"""Cells with ``c >= C_ROW`` hold their centre inside the material (the material of a cell is taken
+to fill it from below, as under gravity): they carry a pressure unknown, the dilatancy row and the
+dilatation source ``c div u``, like full cells. Thinner cells (``C_MIN < c < C_ROW``) are free
+(``p = 0`` at their centre, which lies above the surface) and their grains weigh on the z-face below
+them (:func:`face_solid_fraction`). With the face weights of that reconstruction, ``p = 0`` sits at
+the reconstructed surface: the discrete hydrostatic pressure at a cell centre a distance ``s``
+below the surface is ``rho_s psi |g_z| s`` exactly (a cut-face finite volume, equivalent for a
+horizontal surface to the ghost-fluid condition of Gibou et al. 2002, J. Comput. Phys. 176, 205)."""
 PHI_EMPTY = 1e-14
 """A cell with fewer grains than this (solid fraction) holds no material [-]."""
 MIN_DILATION_FACTOR = 0.5
@@ -106,6 +115,34 @@ def packing(c, phi) -> np.ndarray:
     phi = np.asarray(phi, dtype=float)
     material = c > C_MIN
     return np.where(material, phi / np.where(material, c, 1.0), 0.0)
+
+
+def face_solid_fraction(c, phi) -> np.ndarray:
+    """Solid fraction of the dual cells of the interior z-faces, shape (nx, nz - 1) [-]: the
+    grains between the centres of the cells below and above a face, with each cell's material
+    filling it from below (:data:`C_ROW`). A cell's lower half holds ``psi min(c, 1/2)``, its
+    upper half ``psi max(c - 1/2, 0)``, so that ``phi_f = phi_below - lower_below + lower_above``.
+    Between full cells this is the centred mean; above a surface cell it is the material between
+    its centre and the surface. The sum over a column is the column's grains less the lower half of
+    its bottom cell and the upper half of its top cell (the wall faces' halves)."""
+    c = np.asarray(c, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    lower = packing(c, phi) * np.minimum(c, HALF)
+    return phi[:, :-1] - lower[:, :-1] + lower[:, 1:]
+
+
+def surface_lithostatic(c, phi, weight: float) -> np.ndarray:
+    """Discrete hydrostatic pressure of the reconstructed material [Pa], shape (nx, nz): ``Grad p``
+    balances ``weight * face_solid_fraction`` on the z-faces with ``p = 0`` in the thin and empty
+    cells, i.e. ``weight * (psi max(c - 1/2, 0) + sum of phi above)`` in the cells with a row
+    (``c >= C_ROW``); in the thin cells the pressure at the middle of their material,
+    ``weight * (phi/2 + sum of phi above)`` (their friction pressure). ``weight = rho_s |g_z| dz``
+    [Pa]."""
+    c = np.asarray(c, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    above = np.cumsum(phi[:, ::-1], axis=1)[:, ::-1] - phi
+    own = np.where(c >= C_ROW, packing(c, phi) * np.maximum(c - HALF, 0.0), HALF * phi)
+    return np.where(c > C_MIN, weight * (above + own), 0.0)
 
 
 def material_fraction(phi, packing_of_material) -> np.ndarray:
@@ -274,17 +311,17 @@ def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndar
 
 def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None):
     """One forward-Euler stage: ``(c*, phi*, F_c, F_phi, held)`` (module docstring)."""
-    material, full = c > C_MIN, c >= C_FULL
+    material, full = c > C_MIN, c >= C_ROW
     fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
     fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
     gx, gz = solid_fluxes(grid, packing(c, phi), material, fcx, fcz)
     gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
     c_new = c - dt * flux_divergence(grid, fcx, fcz)
     factor = np.maximum(1.0 - dt * div_u, MIN_DILATION_FACTOR)
-    if dilation is not None:  # partial cells dilate at the closure's rate
-        partial = material & ~full
-        factor = np.where(partial, np.maximum(1.0 - dt * dilation, MIN_DILATION_FACTOR), factor)
-        full = full | partial
+    if dilation is not None:  # thin cells dilate at the closure's rate
+        thin = material & ~full
+        factor = np.where(thin, np.maximum(1.0 - dt * dilation, MIN_DILATION_FACTOR), factor)
+        full = full | thin
     c_new = np.where(full, c_new / factor, c_new)
     return c_new, phi - dt * flux_divergence(grid, gx, gz), (gx, gz), held
 
