@@ -110,9 +110,10 @@ from granflow.physics.material import (
     face_solid_fraction,
     material_fraction,
     packing,
+    surface_distance,
     surface_lithostatic,
 )
-from granflow.physics.pore_pressure import GasLaw
+from granflow.physics.pore_pressure import GasLaw, cell_permeability, face_permeability
 from granflow.physics.transport import (
     PhiScheme,
     advect,
@@ -420,6 +421,26 @@ class Model:
             out[self.grid.w_slice] = face_solid_fraction(c, phi).ravel()  # interior z-faces
         return out
 
+    def gas_face_factor(self, c, psi) -> np.ndarray:
+        """Multiplier of the gas face mobilities (n_unknowns,) that puts ``p_f = 0`` at the
+        reconstructed surface (indicator surface): on a z-face from a wet cell to the cell above
+        it without a row, the mobility becomes ``kappa(psi_below) / theta`` with ``theta`` the
+        centre-to-surface distance in cells (:func:`granflow.physics.material.surface_distance`),
+        so that the Darcy flux there is ``kappa p_f / (theta dz)`` (Gibou et al. 2002); 1 on the
+        other faces. ``psi`` the packing inside the material [-]."""
+        g = self.grid
+        psi = np.asarray(psi, dtype=float).reshape(g.cell_shape)
+        theta = surface_distance(np.asarray(c, dtype=float).reshape(g.cell_shape))
+        kappa_f, _ = face_permeability(g, self.ops, psi, self.material)
+        kc = cell_permeability(psi, self.material)
+        out = np.ones(g.n_unknowns)
+        kz = kappa_f[g.w_slice].reshape(g.nx, g.nz - 1)
+        at = np.isfinite(theta)
+        out_z = np.ones_like(kz)
+        out_z[at] = kc[:, :-1][at] / (theta[at] * kz[at])
+        out[g.w_slice] = out_z.ravel()
+        return out
+
     def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
         """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
         face fraction of the mass flux of a step with velocity ``vel``
@@ -523,7 +544,8 @@ class Model:
         gas_powers = None
         if ex.gas_sys is not None:
             t0 = time.perf_counter()
-            gas_powers = self.gas_coupling.powers(ex.gas_sys, im.p_f, im.u, tr.phi)
+            phi_gas = tr.phi if tr.c is None else packing(tr.c, tr.phi)  # the gas's packing
+            gas_powers = self.gas_coupling.powers(ex.gas_sys, im.p_f, im.u, phi_gas)
             tim["assembly"] += time.perf_counter() - t0
             state.p_f = im.p_f.reshape(self.grid.cell_shape)
         state.phi = tr.phi

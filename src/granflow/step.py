@@ -25,7 +25,7 @@ import scipy.sparse.linalg as spla
 from granflow.errors import GranflowInputError
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
-from granflow.physics.material import C_ROW
+from granflow.physics.material import C_ROW, packing
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.solvers import SaddleHints
 
@@ -159,10 +159,20 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     else:
         adv = mom.momentum_advection(model.ops, state.vel, model.advection)
         rhs_u = rho_n * (state.vel / dt - adv) + f_g
+    thin, p_fric = None, None
+    if model.indicator:
+        thin = dense & (np.ravel(state.c) < C_ROW)
+        p_fric = np.maximum(model.lithostatic_pressure(phi, state.c) - state.p_f, 0.0).ravel()
     gas_sys, border, rhs_gas = None, None, []
     if model.gas_coupling is not None:
+        # indicator surface: the gas lives in the cells with a row, at the material's packing,
+        # with p_f = 0 at the reconstructed surface (Model.gas_face_factor)
+        wet, gas_phi, factor = dense, phi, None
+        if model.indicator:
+            wet, gas_phi = dense & ~thin, packing(state.c, phi)
+            factor = model.gas_face_factor(state.c, gas_phi)
         try:
-            gas_sys = model.gas_coupling.prepare(phi, state.p_f, state.vel, dt, dense)
+            gas_sys = model.gas_coupling.prepare(gas_phi, state.p_f, state.vel, dt, wet, factor)
         except GranflowInputError as err:
             raise StepFailed(f"pore-pressure block: {err}") from None
         if gas_sys.n_wet:
@@ -170,10 +180,6 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
             rhs_gas = [gas_sys.scaled_rhs(model.material.p_atm)]
     keep = model.velocity_region(phi)
     region = None if keep is None else model.assembler.region(keep)
-    thin, p_fric = None, None
-    if model.indicator:
-        thin = dense & (np.ravel(state.c) < C_ROW)
-        p_fric = np.maximum(model.lithostatic_pressure(phi, state.c) - state.p_f, 0.0).ravel()
     tim["assembly"] += time.perf_counter() - t0
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,

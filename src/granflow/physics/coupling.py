@@ -122,6 +122,8 @@ class GasSystem:
     rhs: np.ndarray
     """Right-hand side of the wet gas rows (n_wet,) [Pa s^-1] (unscaled)."""
     dt: float
+    face_factor: np.ndarray | None = None
+    """Multiplier of the face mobilities (indicator surface), else None."""
 
     @property
     def n_wet(self) -> int:
@@ -177,8 +179,9 @@ class GasCoupling:
         self.open_top = bool(open_top)
         self.injection = u
 
-    def prepare(self, phi, p_f, vel, dt: float, wet) -> GasSystem:
-        """Gas rows of the step from ``t^n`` fields (``phi``, ``p_f`` [Pa], ``vel``) and ``wet``.
+    def prepare(self, phi, p_f, vel, dt: float, wet, face_factor=None) -> GasSystem:
+        """Gas rows of the step from ``t^n`` fields (``phi``, ``p_f`` [Pa], ``vel``) and ``wet``
+        (``face_factor``: multiplier of the face mobilities, :func:`gas_operator`).
 
         Raises
         ------
@@ -193,14 +196,15 @@ class GasCoupling:
         phi_star = (np.clip(advect(g, phi_old.reshape(g.cell_shape), vel, dt).phi.ravel(), 0.0, mat.phi_max)
                     if moving else np.clip(phi_old, 0.0, mat.phi_max))
         block = gas_operator(g, ops, phi_star, dt, mat, gas=self.gas, p_f=q, dirichlet=~wet,
-                             open_top=self.open_top, injection=self.injection)
+                             open_top=self.open_top, injection=self.injection, face_factor=face_factor)
         T = (transport_divergence(g, ops, np.clip(phi_old, 0.0, mat.phi_max), q, vel) if moving
              else np.zeros(g.n_cells))
         rhs = explicit_rhs(g, np.clip(phi_old, 0.0, mat.phi_max), q, dt, transport=T, dirichlet=~wet)
         idx = np.flatnonzero(wet)
         M = block.matrix.tocsr()[idx][:, idx].tocsr()
         return GasSystem(wet=wet, phi_star=phi_star, phi_old=phi_old, p_f_old=q, transport=T,
-                         source=block.rhs, matrix=M, rhs=(rhs + block.rhs)[idx], dt=float(dt))
+                         source=block.rhs, matrix=M, rhs=(rhs + block.rhs)[idx], dt=float(dt),
+                         face_factor=None if face_factor is None else np.asarray(face_factor, dtype=float))
 
     def powers(self, system: GasSystem, p_f, vel, phi_new) -> GasPowers:
         """Energy terms of the step (module docstring) for the solution ``p_f`` (n_cells,) [Pa],
@@ -214,7 +218,7 @@ class GasCoupling:
         e_p, e_q, de_p = log_energy_density(p, pa), log_energy_density(q, pa), log_energy_slope(p, pa)
         div_u = ops.div @ vel
         darcy = darcy_dissipation(g, ops, phi_s, p, mat, open_top=self.open_top,
-                                  weighted=self.gas is GasLaw.LINEAR)
+                                  weighted=self.gas is GasLaw.LINEAR, face_factor=system.face_factor)
         pw = p[wet]
         cap = (1.0 - phi_s[wet]) / dt
         Lp = system.matrix @ pw - cap * pw

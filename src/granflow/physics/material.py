@@ -131,6 +131,22 @@ def face_solid_fraction(c, phi) -> np.ndarray:
     return phi[:, :-1] - lower[:, :-1] + lower[:, 1:]
 
 
+THETA_MIN = 0.05
+"""Floor of the centre-to-surface distance in cells (:func:`surface_distance`): a surface closer
+to a centre than this is taken at this distance (bounded face mobilities)."""
+
+
+def surface_distance(c) -> np.ndarray:
+    """Distance from the centre of a cell with a row (``c >= C_ROW``) to the reconstructed surface
+    above it, in cells, on the interior z-faces whose upper cell has no row, shape (nx, nz - 1);
+    NaN on the other faces. With the material filling cells from below it is
+    ``c_below - 1/2 + c_above``, floored at :data:`THETA_MIN`."""
+    c = np.asarray(c, dtype=float)
+    below, above = c[:, :-1], c[:, 1:]
+    face = (below >= C_ROW) & (above < C_ROW)
+    return np.where(face, np.maximum(below - HALF + np.maximum(above, 0.0), THETA_MIN), np.nan)
+
+
 def surface_lithostatic(c, phi, weight: float) -> np.ndarray:
     """Discrete hydrostatic pressure of the reconstructed material [Pa], shape (nx, nz): ``Grad p``
     balances ``weight * face_solid_fraction`` on the z-faces with ``p = 0`` in the thin and empty

@@ -224,7 +224,7 @@ def _diffusion_pattern(ops: Operators) -> _DiffusionPattern:
 
 def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material, *,
                  gas: GasLaw | str = GasLaw.LINEAR, p_f=None, dirichlet=None,
-                 open_top: bool = False, injection=0.0) -> GasBlock:
+                 open_top: bool = False, injection=0.0, face_factor=None) -> GasBlock:
     """Matrix and boundary right-hand side of the implicit p_f equation (paper eq. syst2b).
 
     Parameters
@@ -248,6 +248,9 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
         ``p_f = 0`` on the top wall face (ghost ``p_ghost = -p_top``). Otherwise impermeable.
     injection : float or array_like (nx,)
         Superficial gas velocity ``U_inj`` [m s^-1] injected through the base (``>0`` upwards).
+    face_factor : array_like (n_unknowns,), optional
+        Multiplier of the face mobilities (the indicator surface's faces to the surface,
+        :meth:`granflow.model.Model.gas_face_factor`); pass the same to :func:`darcy_dissipation`.
 
     Returns
     -------
@@ -273,6 +276,8 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
         raise GranflowInputError("dt = inf (steady state) needs dirichlet cells or open_top")
 
     kappa_f, kappa_top = face_permeability(grid, ops, phi, material)
+    if face_factor is not None:
+        kappa_f = kappa_f * np.asarray(face_factor, dtype=float)
     K_f = kappa_f * (material.p_atm + gauge_faces)
     pat = _diffusion_pattern(ops)
     data = pat.P @ K_f
@@ -407,7 +412,7 @@ def gas_energy(grid: Grid, phi, p_f, material: Material,
 
 
 def darcy_dissipation(grid: Grid, ops: Operators, phi, p_f, material: Material, *,
-                      open_top: bool = False, weighted: bool = False) -> float:
+                      open_top: bool = False, weighted: bool = False, face_factor=None) -> float:
     """``D = sum_faces w_f kappa_f |grad p_f|^2 dV`` [W m^-1] (paper eq. energieA_air, NUMERICS §9).
 
     Interior faces count with ``dV``; with ``open_top`` each top wall face adds
@@ -415,10 +420,13 @@ def darcy_dissipation(grid: Grid, ops: Operators, phi, p_f, material: Material, 
     which makes ``D`` the exact discrete partner of :func:`gas_operator`. ``p_f`` must already be 0
     in Dirichlet cells. ``weighted=False``: ``w_f = 1`` (paper's D); ``weighted=True``:
     ``w_f = p_atm/(p_atm + p_f,face)`` (partner of the LOG energy for the LINEAR law).
+    ``face_factor``: the multiplier of the face mobilities given to :func:`gas_operator`.
     """
     ops = _checked(grid, ops, material)
     p = _p_f(grid, p_f, material, absolute=weighted)
     kappa_f, kappa_top = face_permeability(grid, ops, phi, material)
+    if face_factor is not None:
+        kappa_f = kappa_f * np.asarray(face_factor, dtype=float)
     grad = ops.grad @ p
     w_f = material.p_atm / (material.p_atm + ops.cell_to_face @ p) if weighted else 1.0
     total = np.sum(w_f * kappa_f * grad**2) * grid.cell_volume
