@@ -191,3 +191,15 @@ dt_max = 0.05
     late = u[t >= t[-1] - 2.0]
     assert np.ptp(late) / u[-1] < 1e-3, "not steady over the last 2 s"
     assert sim.state.phi.sum() == pytest.approx(0.6 * 20 * 4, rel=1e-12)
+
+
+def test_material_never_looser_than_psi_min():
+    # consistent_bounds: phi/phi_max <= c <= min(phi/psi_min, 1); the grains are never touched
+    from granflow.physics.material import consistent_bounds
+
+    c = np.array([[0.9, 0.9, 0.2, 1e-3]])
+    phi = np.array([[0.54, 0.06, 0.15, 0.0]])
+    new, moved = consistent_bounds(c, phi, 0.6, 1.0, psi_min=0.3)
+    assert np.allclose(new, [[0.9, 0.2, 0.25, 0.0]])
+    assert moved == pytest.approx(0.7 + 0.05 + 1e-3)
+    assert np.all(packing(new, phi)[new > 0] >= 0.3 - 1e-15)

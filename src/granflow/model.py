@@ -164,10 +164,10 @@ class Model:
         ``"threshold"`` (default, v1: ``phi < ambient.phi_c`` is ambient) or ``"indicator"``
         (scheme v2: a transported material fraction ``c``, :mod:`granflow.physics.material`; the
         state carries ``c``, every material cell is dense and the closure is evaluated at the
-        packing ``phi / c``; the weight of a z-face is the reconstructed material of its dual
+        packing ``phi / c``, never looser than ``ambient.phi_c`` (the material volume is bounded
+        by ``phi / phi_c``); the weight of a z-face is the reconstructed material of its dual
         cell (:meth:`face_fraction`), so ``p = 0`` sits at the surface; ``interface_packing``,
-        ``isochoric_interface``, ``consistent_gravity``, ``phi_transport`` and ``ambient.phi_c``
-        are then not used).
+        ``isochoric_interface``, ``consistent_gravity`` and ``phi_transport`` are then not used).
     phi_transport : PhiScheme or str
         Face values of the phi transport: ``"muscl"`` (default, v1: MUSCL-minmod) or ``"sharp"``
         (MUSCL-THINC-BVD: the free surface stays within 1-2 cells,
@@ -324,7 +324,8 @@ class Model:
         or with the indicator :func:`granflow.physics.material.advect_material`, whose result also
         carries ``c``; ``dilation`` the partial cells' dilatation rate [s^-1])."""
         if self.indicator:
-            return advect_material(self.grid, c, phi, vel, dt, self.material.phi_max, dilation)
+            return advect_material(self.grid, c, phi, vel, dt, self.material.phi_max, dilation,
+                                   psi_min=self.ambient.phi_c)
         return advect(self.grid, phi, vel, dt, self.material.phi_max, self.phi_transport)
 
     def _filter_mode(self):

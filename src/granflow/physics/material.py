@@ -210,12 +210,17 @@ def solid_fluxes(grid: Grid, psi, material, fcx, fcz) -> tuple[np.ndarray, np.nd
     return gx, gz
 
 
-def consistent_bounds(c, phi, phi_max: float, cell_volume: float) -> tuple[np.ndarray, float]:
+def consistent_bounds(c, phi, phi_max: float, cell_volume: float,
+                      psi_min: float = 0.0) -> tuple[np.ndarray, float]:
     """``c`` made consistent with the grains it holds (module docstring, "Bounds"): returns the
-    adjusted ``c`` and the material volume changed [m^2 per unit width]."""
+    adjusted ``c`` and the material volume changed [m^2 per unit width]. ``psi_min`` > 0: the
+    loosest packing of the material, ``c <= phi / psi_min`` (a material volume with almost no
+    grains -- a thin cell dilated at the closure's rate under a vanishing pressure -- would
+    otherwise carry a pressure row at a packing far below the dense regime)."""
     c = np.asarray(c, dtype=float)
     phi = np.asarray(phi, dtype=float)
-    new = np.clip(c, np.maximum(phi, 0.0) / phi_max, 1.0)
+    upper = np.minimum(np.maximum(phi, 0.0) / psi_min, 1.0) if psi_min > 0 else 1.0
+    new = np.clip(c, np.maximum(phi, 0.0) / phi_max, upper)
     new = np.where(phi > PHI_EMPTY, new, 0.0)
     return new, cell_volume * float(np.sum(np.abs(new - c)))
 
@@ -342,11 +347,13 @@ def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=
     return c_new, phi - dt * flux_divergence(grid, gx, gz), (gx, gz), held
 
 
-def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation=None) -> MaterialTransport:
+def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation=None,
+                    psi_min: float = 0.0) -> MaterialTransport:
     """One step of the material indicator and the grains (module docstring) with the
     frozen face velocities ``vel`` [m s^-1], ``dt`` [s] (CFL <= 1/2); ``dilation`` (nx, nz)
-    [s^-1], optional: the dilatation rate of the material in the partial cells (the closure's
-    law at their friction pressure), else they are carried without dilating.
+    [s^-1], optional: the dilatation rate of the material in the thin cells (the closure's
+    law at their friction pressure), else they are carried without dilating; ``psi_min`` the
+    loosest packing of the material (:func:`consistent_bounds`).
 
     Examples
     --------
@@ -368,6 +375,6 @@ def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation
     if dilation is not None:
         dilation = np.asarray(dilation, dtype=float).reshape(grid.cell_shape)
     c1, phi_new, (gx, gz), held = _stage(grid, c, phi, u, w, div_u, dt, phi_max, dilation)
-    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, grid.cell_volume)
+    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, grid.cell_volume, psi_min)
     return MaterialTransport(c=c_new, phi=phi_new, flux_x=gx, flux_z=gz,
                              held_back=held, adjusted_volume=adjusted)
