@@ -17,7 +17,6 @@ from pathlib import Path
 
 from granflow.cli import ExitCode
 from granflow.errors import GranflowInputError
-from granflow.output.paths import check_directory, check_file
 
 OUTPUT_FILE = "output.nc"
 """File of a run directory that is plotted (:data:`granflow.cases.runner.OUTPUT_FILE`)."""
@@ -123,6 +122,7 @@ def _check_format(path: Path, what: str = "--out") -> None:
 def cmd_plot(args: argparse.Namespace) -> int:
     """``granflow plot``; prints the files written."""
     from granflow import plotting
+    from granflow.output.paths import check_directory, check_file  # (imports xarray: not at --help)
 
     nc = resolve_output(args.run)
     if args.animate is not None:

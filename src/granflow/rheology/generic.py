@@ -1,17 +1,23 @@
-"""The generic closure: any user-supplied Z(phi, I), f derived symbolically (paper eq. f-general)."""
+"""The generic closure: any user-supplied Z(phi, I), f derived symbolically (paper eq. f-general).
+
+SymPy (:mod:`granflow.rheology.derive`) is imported when a generic closure is made, not when the
+closure registry is: ``granflow list closures`` and ``import granflow`` do not pay for it.
+"""
 from __future__ import annotations
 
 from typing import Any, ClassVar
 
 import numpy as np
-import sympy as sp
 from pydantic import Field, PrivateAttr, field_validator
 
 from granflow.rheology.base import CLOSURES, Closure, _arr
-from granflow.rheology.derive import I, derive_dilatancy, parse_yield_function, phi
 
 
-def _lambdify(expr: sp.Expr):
+def _lambdify(expr):
+    import sympy as sp
+
+    from granflow.rheology.derive import I, phi
+
     fn = sp.lambdify((phi, I), expr, modules="numpy")
 
     def call(ph, ii):
@@ -42,10 +48,16 @@ class Generic(Closure):
     @classmethod
     def _parsable(cls, text: str) -> str:
         """Reject an unparsable expression here, so that the error names the key ``expression``."""
+        from granflow.rheology.derive import parse_yield_function
+
         parse_yield_function(text)  # GranflowInputError is a ValueError: reported at this key
         return text
 
     def model_post_init(self, __context: Any) -> None:
+        import sympy as sp
+
+        from granflow.rheology.derive import I, derive_dilatancy, parse_yield_function, phi
+
         Zs = parse_yield_function(self.expression)
         d = derive_dilatancy(Zs, simplify=False)
         W = d.W

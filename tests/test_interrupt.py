@@ -1,0 +1,40 @@
+"""Ctrl-C during the start-up of ``granflow run`` (imports, case loading, model set-up -- before
+the run's own SIGINT handler is installed) exits with 130 (128 + SIGINT), not 1 and not a
+traceback."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
+# The console script's body, with a line on stdout once ``main`` is about to run: the signal is
+# sent after it, so it cannot land before granflow's handler exists (Python would then die of the
+# signal, returncode -2, which is not what is tested), and it lands while ``granflow run`` is
+# still importing the solver and loading the case (about a second), long before the first step.
+CHILD = ("import sys; from granflow.cli import main; print('ready', flush=True); "
+         "sys.exit(main())")
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_during_run_start_up_exits_130(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CHILD, "run", str(EXAMPLE), "--out", str(tmp_path / "run"),
+         "--quiet", "--set", "grid.nx=16", "--set", "grid.nz=6"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert "interrupted" in err
