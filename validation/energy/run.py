@@ -220,7 +220,7 @@ def example_config(case: str, overrides: list[str]):
     """The example's case file restricted to the sections and keys that decide the physics
     (PHYSICS_SECTIONS, TIME_KEYS; ``[output]`` and the run-control options are dropped, so that
     an output option added to the example does not matter), with ``overrides`` applied."""
-    from granflow.cases.options import dumps_toml
+    from granflow.config import dumps_toml
 
     data = tomllib.loads(CASE_FILES[case].read_text())
     data = {k: v for k, v in data.items() if k in PHYSICS_SECTIONS}

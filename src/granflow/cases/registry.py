@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from granflow.config import cases_changed, register_cases
 from granflow.registry import Registry
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -108,6 +109,7 @@ class CaseRegistry(Registry[Case]):
             self.add(name, Case(name, setup, setup_model, summary, check or _no_problems,
                                 diagnostics or _no_diagnostics, front_threshold, headline, settles,
                                 units))
+            cases_changed()
             return setup
 
         return deco
@@ -115,10 +117,9 @@ class CaseRegistry(Registry[Case]):
     def unregister(self, name: str) -> None:
         """Remove a case (for cases registered by tests)."""
         self.remove(name)
-        from granflow.config import _config_model
-
-        _config_model.cache_clear()
+        cases_changed()
 
 
 CASES = CaseRegistry()
-"""The registry of cases (``granflow list cases``)."""
+"""The registry of cases (``granflow list cases``); the case catalogue of :mod:`granflow.config`."""
+register_cases(CASES)

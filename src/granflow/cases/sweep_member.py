@@ -65,7 +65,7 @@ def summary_scalars(summary: Mapping[str, Any], prefix: str = "") -> dict[str, A
 
 def write_case_file(config: Mapping[str, Any], path: Path) -> Path:
     """Write ``config`` as a TOML case file (so that the run's NetCDF records the case file)."""
-    from granflow.cases.options import dumps_toml
+    from granflow.config import dumps_toml
 
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(dumps_toml(config), encoding="utf-8")

@@ -1,21 +1,18 @@
-"""``--set key=value`` overrides, values parsed as TOML (``--set delta_deg=30``,
-``--set material.d=1e-4``, ``--set 'expression="I^2"'``; a value that is not valid TOML is taken
-as a bare string)."""
+"""``--set key=value`` overrides of the closure commands (``granflow check``, ``stability``, ...):
+the dialect of the case files (:func:`granflow.config.parse_override`: values parsed as TOML, a
+value that is not valid TOML is a bare string), with short keys: ``--set delta_deg=30`` is a
+closure parameter, ``--set material.d=1e-4`` and ``--set equilibrium.a=0.2`` address the sections
+the closure is built from."""
 from __future__ import annotations
 
 from typing import Any
 
+from granflow.config.overrides import parse_override
+from granflow.config.tomlfile import short
 from granflow.errors import GranflowInputError
-from granflow.safe_toml import loads_value
 
 #: Top-level sections an override may address; anything else is a closure parameter.
 SECTIONS = ("material", "equilibrium")
-
-
-def parse_value(text: str, key: str = "value") -> Any:
-    """Parse ``text`` as a TOML value; fall back to the bare string (limits and line breaks:
-    :func:`granflow.safe_toml.loads_value`)."""
-    return loads_value(text, key)
 
 
 def parse_overrides(items: list[str] | None) -> dict[str, dict[str, Any]]:
@@ -28,13 +25,9 @@ def parse_overrides(items: list[str] | None) -> dict[str, dict[str, Any]]:
     """
     out: dict[str, dict[str, Any]] = {"closure": {}, "material": {}, "equilibrium": {}}
     for item in items or []:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise GranflowInputError(f"--set {_short(item)}: expected key=value")
-        parts = key.split(".")
+        parts, value = parse_override(item, form="key=value")
         if len(parts) == 1 and parts[0] in SECTIONS:
-            raise GranflowInputError(f"--set {_short(item)}: {parts[0]} is a section, not a value; "
+            raise GranflowInputError(f"--set {short(item)}: {parts[0]} is a section, not a value; "
                                      f"set one of its parameters: {parts[0]}.<name>=VALUE")
         if len(parts) == 1:
             section, name = "closure", parts[0]
@@ -42,14 +35,8 @@ def parse_overrides(items: list[str] | None) -> dict[str, dict[str, Any]]:
             section, name = parts
         else:
             raise GranflowInputError(
-                f"--set {_short(item)}: key must be a closure parameter or one of "
+                f"--set {short(item)}: key must be a closure parameter or one of "
                 f"{', '.join(s + '.<name>' for s in SECTIONS)}"
             )
-        out[section][name] = parse_value(value.strip(), key)
+        out[section][name] = value
     return out
-
-
-def _short(item: str) -> str:
-    """An item for a one-line message (line breaks escaped, long text cut)."""
-    text = repr(item)
-    return text if len(text) <= 60 else text[:57] + "..."

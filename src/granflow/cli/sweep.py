@@ -138,7 +138,7 @@ def with_all_sections(case: Mapping[str, Any]) -> dict[str, Any]:
 def load_sweep(path: str | Path):
     """Read a sweep file: ``(SweepSpec, base case path)``; every problem is a
     :class:`GranflowInputError` naming the file and the key."""
-    from granflow.cases.options import read_toml
+    from granflow.config import read_toml
     from granflow.sweep import SweepSpec
 
     path = Path(path)

@@ -1,4 +1,4 @@
-"""Case files: the strict, typed configuration of a run (STYLE.md idiom 9).
+"""Case files: the strict, typed configuration of a run (STYLE.md idiom 9) -- the schema.
 
 A case file is TOML with the sections ``[case]`` (``name``: the case registry key),
 ``[material]`` (:class:`granflow.materials.Material`), ``[closure]`` (``name`` + the closure's
@@ -27,11 +27,8 @@ granflow.errors.GranflowInputError: grid.nx: Input should be greater than or equ
 """
 from __future__ import annotations
 
-import difflib
-import functools
 import math
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import (
@@ -39,15 +36,12 @@ from pydantic import (
     ConfigDict,
     Field,
     PrivateAttr,
-    ValidationError,
-    create_model,
     model_validator,
 )
 
-from granflow.errors import GranflowInputError, UnknownNameError
+from granflow.config.tomlfile import KEY_SEP, dumps_toml  # noqa: F401  (KEY_SEP: re-exported)
 from granflow.grid import MIN_CELLS
 from granflow.materials import Material
-from granflow.params import accepts
 from granflow.model import (
     DEFAULT_DELTA_P,
     DEFAULT_EPS,
@@ -87,9 +81,6 @@ OUTPUT_FIELDS = ("phi", "u", "w", "p", "p_f", "S")
 """Cell-centred fields that can be written to the NetCDF output."""
 WallCondition = Literal["no_slip", "free_slip"]
 GasLawName = Literal["none", "linear", "nonlinear"]
-KEY_SEP = "."
-MAX_SUGGESTIONS = 1
-"""Number of "did you mean" suggestions for an unknown key."""
 
 
 class Section(BaseModel):
@@ -114,7 +105,7 @@ class MaterialSection(Material):
     model_config = ConfigDict(strict=True, allow_inf_nan=False)
 
 
-class _OpenSection(BaseModel):
+class OpenSection(BaseModel):
     """A registry name plus free parameters, validated by the registry's own model."""
 
     model_config = ConfigDict(frozen=True, extra="allow", strict=True, allow_inf_nan=False)
@@ -124,13 +115,13 @@ class _OpenSection(BaseModel):
         return dict(self.model_extra or {})
 
 
-class ClosureSection(_OpenSection):
+class ClosureSection(OpenSection):
     """``[closure]``: ``name`` and the closure's parameters (``granflow list closures``)."""
 
     name: str = Field("drucker_prager", description="closure registry key (granflow list closures) [-]")
 
 
-class EquilibriumSection(_OpenSection):
+class EquilibriumSection(OpenSection):
     """``[equilibrium]``: ``law`` and its parameters (``granflow list equilibria``)."""
 
     law: str = Field("linear", description="equilibrium-law registry key (granflow list equilibria) [-]")
@@ -303,7 +294,9 @@ class CaseConfig(Section):
         GranflowInputError
             ``"<key.path>: <what was expected> (got <value>)"`` for each problem, ``"; "``-joined.
         """
-        return _validate(dict(data))
+        from granflow.config.validation import validate  # deferred: validation builds on this module
+
+        return validate(dict(data))
 
     # --- derived objects ------------------------------------------------------------------------
     def make_closure(self):
@@ -339,224 +332,4 @@ class CaseConfig(Section):
 
     def to_toml(self) -> str:
         """The effective configuration (defaults filled in) as TOML text."""
-        from granflow.cases.options import dumps_toml
-
         return dumps_toml(self.model_dump(mode="json", exclude_none=True))
-
-
-# --------------------------------------------------------------------------------------------
-# Loading and validation (TOML reading and --set overrides: granflow.cases.options)
-# --------------------------------------------------------------------------------------------
-EXTRA_SET_ENV = "GRANFLOW_EXTRA_SET"
-"""Environment variable of extra ``--set`` items applied after the command line's, for tests that
-run the documentation's commands on small grids: ``;``-separated ``key=value`` items, each
-optionally scoped to one case as ``case:key=value``. Unset in normal use."""
-
-
-def environment_overrides(case_name: str | None) -> list[str]:
-    """The items of :data:`EXTRA_SET_ENV` that apply to ``case_name``."""
-    import os
-
-    out = []
-    for item in os.environ.get(EXTRA_SET_ENV, "").split(";"):
-        item = item.strip()
-        if not item:
-            continue
-        scope, sep, rest = item.partition(":")
-        if sep and "=" not in scope:
-            if scope == case_name:
-                out.append(rest.strip())
-        else:
-            out.append(item)
-    return out
-
-
-def load_case(path: str | Path, overrides: list[str] | None = None) -> CaseConfig:
-    """Read, override and validate a case file.
-
-    Parameters
-    ----------
-    path : path-like
-        TOML case file.
-    overrides : list of str, optional
-        ``"section.key=value"`` items, values parsed as TOML (``grid.nx=80``,
-        ``closure.name="mu_i"``; a bare word is taken as a string).
-
-    Returns
-    -------
-    CaseConfig
-
-    Raises
-    ------
-    GranflowInputError
-        Unreadable file, TOML syntax error (with line and column), or invalid content (every
-        problem, each naming its key path, in one message prefixed with the file name).
-    """
-    from granflow.cases.options import apply_overrides, read_toml
-
-    text, data = read_toml(path)
-    section = data.get("case") if isinstance(data.get("case"), dict) else {}
-    case_name = section.get("name", "column_collapse")  # the default of [case] name
-    data = apply_overrides(data, list(overrides or []) + environment_overrides(case_name))
-    try:
-        cfg = _validate(data)
-    except GranflowInputError as err:
-        raise GranflowInputError(f"{path}: {err}") from None
-    cfg._source_text = text
-    cfg._source_path = str(path)
-    cfg._overrides = tuple(overrides or ())
-    return cfg
-
-
-def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
-
-
-def _key(part: Any) -> str:
-    """A key path component, quoted if it is not a plain identifier (one line, printable)."""
-    s = str(part)
-    return s if s.replace("_", "").isalnum() and s.isascii() else repr(s)
-
-
-def _path(loc) -> str:
-    return KEY_SEP.join(_key(p) for p in loc) or "(case file)"
-
-
-def _show(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-@functools.cache
-def _config_model(case_name: str | None) -> type[CaseConfig]:
-    """CaseConfig whose ``setup`` is the case's own model (plain dict for an unknown case)."""
-    if case_name is None:
-        return create_model("CaseConfigAnyCase", __base__=CaseConfig, setup=(dict[str, Any], {}))
-    from granflow.cases import CASES
-
-    model = CASES.get(case_name).setup_model
-    return create_model(f"CaseConfig_{case_name}", __base__=CaseConfig,
-                        setup=(model, Field(default_factory=model)))
-
-
-def _fields_at(model: type[BaseModel], loc) -> list[str]:
-    """Allowed keys of the section at ``loc`` (for "unknown key" messages)."""
-    for part in loc:
-        field = model.model_fields.get(str(part))
-        ann = getattr(field, "annotation", None)
-        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
-            return []
-        model = ann
-    return list(model.model_fields)
-
-
-def _pydantic_errors(err: ValidationError, model: type[BaseModel]) -> list[str]:
-    out = []
-    for e in err.errors():
-        loc = e["loc"]
-        if e["type"] == "extra_forbidden":
-            allowed = _fields_at(model, loc[:-1])
-            near = difflib.get_close_matches(str(loc[-1]), allowed, n=MAX_SUGGESTIONS)
-            hint = f"; did you mean {near[0]!r}?" if near else ""
-            out.append(f"{_path(loc)}: unknown key (expected one of: {', '.join(allowed)}){hint}")
-            continue
-        msg = e["msg"].removeprefix("Value error, ")
-        if e["type"] == "missing":
-            out.append(f"{_path(loc)}: missing")
-        elif isinstance(e.get("input"), dict):  # a whole-section validator: do not echo the section
-            out.append(f"{_path(loc)}: {msg}")
-        else:
-            out.append(f"{_path(loc)}: {msg} (got {_show(e.get('input'))})")
-    return out
-
-
-def _nonfinite(data: Any, loc: tuple) -> list[str]:
-    if isinstance(data, float) and not math.isfinite(data):
-        return [f"{_path(loc)}: Input should be a finite number (got {data!r})"]
-    if isinstance(data, dict):
-        return [m for k, v in data.items() for m in _nonfinite(v, (*loc, k))]
-    if isinstance(data, list):
-        return [m for i, v in enumerate(data) for m in _nonfinite(v, (*loc, i))]
-    return []
-
-
-def _registry_errors(data: Any, material: Material) -> list[str]:
-    """Build the closure (or check the equilibrium law) of the raw section; errors named."""
-    from granflow.equilibrium import EQUILIBRIUM_LAWS
-    from granflow.rheology import CLOSURES, make_closure
-
-    closure_raw = data.get("closure", {}) if isinstance(data.get("closure", {}), dict) else {}
-    eq_raw = data.get("equilibrium", {}) if isinstance(data.get("equilibrium", {}), dict) else {}
-    name = closure_raw.get("name", ClosureSection.model_fields["name"].default)
-    law = eq_raw.get("law", EquilibriumSection.model_fields["law"].default)
-    if not isinstance(name, str) or not isinstance(law, str):
-        return []  # reported as a type error by pydantic
-    params = {k: v for k, v in closure_raw.items() if k != "name"}
-    eq_params = {k: v for k, v in eq_raw.items() if k != "law"}
-    errors = []
-    if name not in CLOSURES:
-        near = difflib.get_close_matches(name, CLOSURES.names(), n=MAX_SUGGESTIONS)
-        errors.append(f"closure.name: unknown closure {name!r} (expected one of: "
-                      f"{', '.join(CLOSURES.names())})" + (f"; did you mean {near[0]!r}?" if near else ""))
-    if law not in EQUILIBRIUM_LAWS:
-        errors.append(f"equilibrium.law: unknown equilibrium law {law!r} (expected one of: "
-                      f"{', '.join(EQUILIBRIUM_LAWS.names())})")
-    if errors:
-        return errors
-    cls = CLOSURES.get(name)
-    for key, value in params.items():
-        field = cls.model_fields.get(key)
-        if key in ("material", "equilibrium"):
-            errors.append(f"closure.{_key(key)}: not a closure parameter; use the [{key}] section")
-        elif field is not None and isinstance(value, (str, bool)) and not accepts(field.annotation, type(value)):
-            errors.append(f"closure.{_key(key)}: Input should be a number (got {_show(value)})")
-    if errors:
-        return errors
-    try:
-        make_closure(name, material=material, equilibrium=law, equilibrium_params=eq_params, **params)
-    except UnknownNameError as err:  # pragma: no cover - names checked above
-        errors.append(str(err))
-    except GranflowInputError as err:
-        allowed = {"closure": (f"closure {name!r}", [k for k in cls.model_fields
-                                                     if k not in ("material", "equilibrium")]),
-                   "equilibrium": (f"equilibrium law {law!r}", [k for k in EQUILIBRIUM_LAWS.get(law).model_fields
-                                                               if k != "phi_max"])}
-        for part in _one_line(str(err)).split("; "):
-            head = part.split(KEY_SEP, 1)[0]
-            if head in allowed and part.endswith("unknown parameter"):
-                what, keys = allowed[head]
-                part += f" of {what} (expected one of: {', '.join(keys)})"
-            errors.append(part if head in allowed else f"closure: {part}")
-    return errors
-
-
-def _validate(data: dict[str, Any]) -> CaseConfig:
-    from granflow.cases import CASES
-    from granflow.config_checks import common_problems
-
-    errors: list[str] = []
-    case_raw = data.get("case")
-    case_name = case_raw.get("name") if isinstance(case_raw, dict) else None
-    if isinstance(case_name, str) and case_name not in CASES:
-        near = difflib.get_close_matches(case_name, CASES.names(), n=MAX_SUGGESTIONS)
-        errors.append(f"case.name: unknown case {case_name!r} (expected one of: {', '.join(CASES.names())})"
-                      + (f"; did you mean {near[0]!r}?" if near else ""))
-    model = _config_model(case_name if isinstance(case_name, str) and case_name in CASES else None)
-    errors += _nonfinite({k: data.get(k) for k in ("closure", "equilibrium") if k in data}, ())
-    cfg = None
-    try:
-        cfg = model.model_validate(data)
-    except ValidationError as err:
-        errors += _pydantic_errors(err, model)
-    if not any(e.startswith(("closure", "equilibrium")) for e in errors):
-        try:
-            material = MaterialSection.model_validate(data.get("material", {}))
-        except ValidationError:
-            material = Material()
-        errors += _registry_errors(data, material)
-    if errors:
-        raise GranflowInputError("; ".join(dict.fromkeys(errors)))
-    errors = [f"{path}: {msg}" for path, msg in CASES.get(cfg.case.name).check(cfg) + common_problems(cfg)]
-    if errors:
-        raise GranflowInputError("; ".join(errors))
-    return cfg

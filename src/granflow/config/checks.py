@@ -4,7 +4,7 @@ a yield function that is not negative on the equilibrium line. Each problem is `
 """
 from __future__ import annotations
 
-from granflow.config import COLUMN_KEYS, EQUILIBRIUM_I, KEY_SEP, MAX_STEPS, PHYSICAL_RANGES
+from granflow.config.schema import COLUMN_KEYS, EQUILIBRIUM_I, KEY_SEP, MAX_STEPS, PHYSICAL_RANGES
 
 
 def common_problems(cfg) -> list[tuple[str, str]]:
