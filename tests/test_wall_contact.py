@@ -30,7 +30,7 @@ def test_watch_reports_new_contacts_once_and_ignores_the_initial_ones():
     assert WallWatch(periodic_x=True).check(phi, 0.6, 0.0) == []
 
 
-def test_collapse_cut_by_the_east_wall_is_flagged(tmp_path):
+def test_collapse_cut_by_the_east_wall_is_flagged(tmp_path, capsys):
     out = tmp_path / "run"
     code = main(["run", str(ROOT / "examples" / "column_collapse_dry.toml"), "--out", str(out), "--quiet",
                  "--set", "grid.nx=12", "--set", "grid.nz=6", "--set", "grid.Lx=0.15", "--set", "grid.Lz=0.15",
@@ -39,6 +39,9 @@ def test_collapse_cut_by_the_east_wall_is_flagged(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert "east_wall" in summary["wall_contact"]
     assert any("reached the east wall" in w and "lower bound" in w for w in summary["warnings"])
+    err = capsys.readouterr().err
+    assert "granflow: warning: grains reached the east wall" in err
+    assert "warning: granflow:" not in err and "warning: granflow:" not in " ".join(summary["warnings"])
     with netCDF4.Dataset(out / "output.nc") as ds:
         assert ds.getncattr("reached_east_wall") == 1 and ds.getncattr("reached_lid") == 0
         assert 0.0 < ds.getncattr("reached_east_wall_t") <= 0.3

@@ -301,7 +301,7 @@ class CaseRun:
         for side in new:
             text = warning_text(side, t, self.case_unit("time"), key)
             self.warnings.append(text)
-            logger.warning(text)
+            logger.warning(f"granflow: warning: {text}")
         if new or not self.front_t:  # the flags exist (0) from the first record on
             self.writer.set_attributes(self.walls.attributes())
 
@@ -323,13 +323,13 @@ class CaseRun:
         law = m.closure.equilibrium
         phi_eq = float(law.phi_eq(I_max))
         if phi_eq < 0:
-            text = (f"granflow: warning: phi_eq(I) = {phi_eq:.3g} < 0 at I = {I_max:.3g}, reached at "
+            text = (f"phi_eq(I) = {phi_eq:.3g} < 0 at I = {I_max:.3g}, reached at "
                     f"t = {st.t:.6g} s (equilibrium law {self.config.equilibrium.law!r}, "
                     f"delta_phi = {getattr(law, 'delta_phi', float('nan')):g}): the dilatancy law "
                     "is outside its range; lower delta_phi or use a law with phi_eq > 0 at every I")
             self.warnings.append(text)
             self._phi_eq_warned = True
-            logger.warning(text)
+            logger.warning(f"granflow: warning: {text}")
 
     # --- monitor, checkpoints -------------------------------------------------------------------
     def _speeds(self) -> tuple[float, float]:

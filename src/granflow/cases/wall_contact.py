@@ -53,5 +53,5 @@ def warning_text(side: str, t: float, time_unit: str, length_key: str) -> str:
     """The console / summary warning for a side first reached at ``t``."""
     where = "the east wall" if side == "east_wall" else "the lid (top of the box)"
     fix = f"enlarge {length_key}" if side == "east_wall" else "raise the box height"
-    return (f"granflow: warning: grains reached {where} at t = {t:.4g} {time_unit}: the box cuts the "
+    return (f"grains reached {where} at t = {t:.4g} {time_unit}: the box cuts the "
             f"flow and the run-out is a lower bound; {fix}")
