@@ -210,15 +210,15 @@ COARSE = ("grid.nz=12", "grid.Lz=0.012")   # 10 cells over h, 2 ambient (dz = 1 
 
 
 def test_inclined_layer_reaches_the_bagnold_surface_velocity(tmp_path):
-    """Dry, theta = 25 deg, 10 cells over h, from the Bagnold state to t = 8 s: u_s (top cell
-    row of output.nc, the ambient moves with the surface) within 9 % of Bagnold's 0.4065 m/s
+    """Dry, theta = 25 deg, 10 cells over h, from the Bagnold state to t = 8 s: u_s (largest row mean
+    of u in output.nc, the surface speed) within 9 % of Bagnold's 0.4065 m/s
     (measured +7.1 %; the first-order surface error, +7.2 % at nz = 10 in
     validation/inclined_plane), median phi within 3e-3 of phi_eq (measured -1.9e-3), and
     steady: u_s changed by <= 1e-3 over the last second (measured 6.3e-4)."""
     summary, out = run_example("inclined_layer", tmp_path, *COARSE, "time.stop_time=8.0")
     u_exact, phi_eq = bagnold_surface(25.0, 0.0)
     with xr.open_dataset(out / "output.nc") as ds:
-        u_s = float(ds["u"].isel(time=-1, z=-1).mean())
+        u_s = float(ds["u"].isel(time=-1).mean("x").max())
         phi = ds["phi"].isel(time=-1).values[:, :10]
     err = u_s / u_exact - 1
     print(f"\ninclined dry: u_s error {err:+.3e}, median phi - phi_eq {np.median(phi) - phi_eq:+.2e}")
@@ -242,7 +242,7 @@ def test_fluidised_chute_follows_the_reduced_friction(tmp_path):
     u_exact, _ = bagnold_surface(22.0, 0.15)
     u_dry, _ = bagnold_surface(22.0, 0.0)
     with xr.open_dataset(out / "output.nc") as ds:
-        u_s = float(ds["u"].isel(time=-1, z=-1).mean())
+        u_s = float(ds["u"].isel(time=-1).mean("x").max())
     err = u_s / u_exact - 1
     print(f"\nfluidised chute: u_s error {err:+.3e}, p_f error {summary['case_diagnostics']['p_f_max_error_rel']:.2e}")
     assert abs(err) <= 4e-2
