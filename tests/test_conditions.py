@@ -16,8 +16,8 @@ from scipy.optimize import brentq
 
 from granflow.errors import GranflowInputError
 from granflow.rheology import CLOSURES, make_closure
-from granflow.theory import conditions as cond
 from granflow.theory.conditions import check, condition_map
+from _closure_checks import assert_c1_and_equilibrium
 
 CONDITION_NAMES = ("C1", "C2", "C2_strict", "C3", "dissipation", "equilibrium", "Z_nonnegative")
 BOUNDARY_RTOL = 1e-6  # detected boundary vs closed form (the brief asks 1e-5)
@@ -53,24 +53,7 @@ def failing_regions(report, name, kind="grid"):
 # ---- registry-wide -------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", NON_REFERENCE)
 def test_non_reference_closures_pass_c1_and_equilibrium(name):
-    closure = make_closure(name)
-    rep = check(closure)
-    c1 = rep.conditions["C1"]
-    assert c1.passed and c1.worst_value < cond.C1_TOLERANCE  # relative residual, tol 1e-9
-    assert rep.conditions["equilibrium"].passed
-    assert rep.conditions["equilibrium"].extra["max_abs_f_at_eq"] < 1e-12
-    assert rep.reference is False
-    # Independent cross-check of the verdict: C1 with central finite differences of Z and f only
-    # (not the closure's derivative methods), relative step 1e-5, tolerance 1e-6.
-    phi = np.array([0.45, 0.55, 0.59])[:, None]
-    I = closure.I_eq(phi) * np.array([0.05, 0.7, 1.3, 20.0])[None, :]
-    h = 1e-5 * I
-    Z, f = closure.Z(phi, I), closure.f(phi, 1e3, I)
-    dZ = (closure.Z(phi, I + h) - closure.Z(phi, I - h)) / (2 * h)
-    df = (closure.f(phi, 1e3, I + h) - closure.f(phi, 1e3, I - h)) / (2 * h)
-    res = Z - I * dZ / 2 - (f + I * df)
-    scale = abs(Z) + abs(I * dZ) / 2 + abs(f) + abs(I * df)
-    assert np.all(abs(res) <= 1e-6 * scale)
+    assert_c1_and_equilibrium(make_closure(name))
 
 
 @pytest.mark.parametrize("name", REFERENCE)
