@@ -351,10 +351,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
 # --------------------------------------------------------------------------------------------
 # Snapshots and animations of a run's output.nc (granflow plot)
 # --------------------------------------------------------------------------------------------
-#: Variables of ``granflow plot``: the cell-centred NetCDF fields and the derived granular speed.
-PLOT_VARIABLES = ("phi", "u", "w", "p", "p_f", "S", "speed")
-#: The derived variable |u| = sqrt(u^2 + w^2) [m s-1].
-SPEED = "speed"
+from granflow.plot_variables import PLOT_VARIABLES, SPEED  # noqa: E402  (one definition, NumPy-free)
 #: Colour maps: packing, signed velocities (centred on zero), everything else.
 PHI_CMAP, SIGNED_CMAP, DEFAULT_CMAP = "YlOrBr", "RdBu_r", "viridis"
 SIGNED_VARIABLES = ("u", "w")

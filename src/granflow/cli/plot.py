@@ -28,7 +28,7 @@ DIMS = ("time", "x", "z")
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``granflow plot``."""
-    from granflow.plotting import PLOT_VARIABLES
+    from granflow.plot_variables import PLOT_VARIABLES
 
     p = sub.add_parser("plot", help="snapshot (PNG) or animation (GIF) of a run's output.nc",
                        description="Plot a variable of a granflow run with its free surface "
