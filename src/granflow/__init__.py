@@ -7,6 +7,8 @@ from granflow.errors import GranflowError, GranflowInputError
 
 __version__ = "0.1.0.dev0"
 
+from granflow._lazy import lazy_attributes
+
 #: Public names imported on first access (PEP 562), so that ``import granflow`` and the
 #: ``granflow`` command's start-up do not import NumPy, pydantic and SymPy until they are used.
 _LAZY = {
@@ -20,20 +22,7 @@ _LAZY = {
     "Material": "granflow.materials",
 }
 
-
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
 
 __all__ = [
     "CLOSURES",

@@ -18,6 +18,8 @@ equilibrium laws, pydantic); the cases plug their ``[setup]`` models and checks 
 >>> cfg.grid.nx, cfg.closure.name, cfg.setup.H0
 (20, 'drucker_prager', 0.1)
 """
+from granflow._lazy import lazy_attributes
+
 #: Public names and the submodule that defines each, imported on first access (PEP 562): the
 #: command line's ``--set`` parser needs only :mod:`~granflow.config.overrides`, and importing the
 #: schema pulls in the numerical core (SciPy, NumPy) -- ``granflow --help`` must not.
@@ -67,19 +69,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
 
 __all__ = [
     "COLUMN_KEYS", "DEFAULT_GRAVITY", "EQUILIBRIUM_I", "EXTRA_SET_ENV", "KEY_SEP", "MAX_CELLS",
