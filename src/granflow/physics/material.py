@@ -332,18 +332,19 @@ def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndar
 
 def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None):
     """One forward-Euler stage: ``(c*, phi*, F_c, F_phi, held)`` (module docstring)."""
-    material, full = c > C_MIN, c >= C_ROW
+    material, rows = c > C_MIN, c >= C_ROW   # rows: the cells with a dilatancy row
     fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
     fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
     gx, gz = solid_fluxes(grid, packing(c, phi), material, fcx, fcz)
     gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
     c_new = c - dt * flux_divergence(grid, fcx, fcz)
     factor = np.maximum(1.0 - dt * div_u, MIN_DILATION_FACTOR)
+    dilating = rows
     if dilation is not None:  # thin cells dilate at the closure's rate
-        thin = material & ~full
+        thin = material & ~rows
         factor = np.where(thin, np.maximum(1.0 - dt * dilation, MIN_DILATION_FACTOR), factor)
-        full = full | thin
-    c_new = np.where(full, c_new / factor, c_new)
+        dilating = rows | thin
+    c_new = np.where(dilating, c_new / factor, c_new)
     return c_new, phi - dt * flux_divergence(grid, gx, gz), (gx, gz), held
 
 
