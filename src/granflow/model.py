@@ -92,6 +92,7 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
     PHI_TRACE,
     VISCOUS_ADDITION_FACTOR,
     AmbientParams,
+    BaseFriction,
     Coefficients,
     LinearSolverChoice,
     PicardParams,
@@ -160,6 +161,10 @@ class Model:
         Momentum transport: the v1 non-conservative ``(u . grad) u`` schemes ``"upwind"``
         (default) and ``"muscl"``, or ``"consistent"`` (scheme v2: conservative, with the mass
         fluxes of the phi transport, :mod:`granflow.physics.momentum_transport`).
+    base_friction : BaseFriction or str, optional
+        Pressure of the friction on a no-slip base: ``"wall"`` (the bottom cells' viscosity at the
+        pressure extrapolated to the wall) or ``"centre"`` (at their centre pressure). Default
+        (None): ``"wall"`` with the indicator surface, ``"centre"`` with the threshold one.
     surface : Surface or str
         ``"threshold"`` (default, v1: ``phi < ambient.phi_c`` is ambient) or ``"indicator"``
         (scheme v2: a transported material fraction ``c``, :mod:`granflow.physics.material`; the
@@ -207,7 +212,8 @@ class Model:
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
                  linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
                  isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
-                 surface: Surface | str = Surface.THRESHOLD) -> None:
+                 surface: Surface | str = Surface.THRESHOLD,
+                 base_friction: BaseFriction | str | None = None) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -256,6 +262,13 @@ class Model:
                                      f"{[a.value for a in Surface]}") from None
         if self.surface is Surface.INDICATOR:  # the reconstructed surface replaces these
             self.isochoric_interface, self.interface_packing, self.consistent_gravity = 0, False, False
+        try:
+            self.base_friction = (BaseFriction(base_friction) if base_friction is not None
+                                  else BaseFriction.WALL if self.surface is Surface.INDICATOR
+                                  else BaseFriction.CENTRE)
+        except ValueError:
+            raise GranflowInputError(f"Model: unknown base_friction {base_friction!r}; expected one of "
+                                     f"{[a.value for a in BaseFriction]}") from None
         self.gravity_blend_velocity = (self.eps * grid.Lz if gravity_blend_velocity is None
                                        else float(gravity_blend_velocity))
         if not self.gravity_blend_velocity > 0:

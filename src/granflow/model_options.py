@@ -85,6 +85,19 @@ class Surface(str, Enum):
     inside the material ``phi / c``; no threshold, no band, no ``phi_loc``."""
 
 
+class BaseFriction(str, Enum):
+    """Pressure of the friction on a no-slip base (``numerics.base_friction``)."""
+
+    CENTRE = "centre"
+    """The base's nodes take the mean viscosity of the two cells above, evaluated at the cells'
+    centre pressure (half a cell of weight short of the wall: the basal friction of a layer one
+    cell thick is half its weight's)."""
+    WALL = "wall"
+    """The same cells' viscosity evaluated at the pressure extrapolated to the wall
+    (:func:`granflow.physics.momentum.base_pressure`), so that the basal yield stress is
+    ``Z p_wall`` at any thickness (default with the indicator surface)."""
+
+
 class AmbientParams(Params):
     """The pressureless light ambient (NUMERICS.md §7).
 

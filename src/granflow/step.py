@@ -23,6 +23,8 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from granflow.errors import GranflowInputError
+from granflow.grid import VelocityBC
+from granflow.model_options import BaseFriction
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.material import C_ROW, packing
@@ -218,6 +220,39 @@ def _solve(model, K, rhs, x0, hints, tim: dict, sweeps: int):
     return sol, its
 
 
+def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n) -> np.ndarray:
+    """``eta_n`` with the nodes of a no-slip base re-evaluated at the wall pressure [Pa s].
+
+    ``numerics.base_friction = "wall"`` (:class:`granflow.model_options.BaseFriction`): each base
+    node takes the mean viscosity of the (one or two) bottom cells beside it, the closure evaluated
+    at the cells' packing and strain rate but at the pressure extrapolated to the wall
+    (:func:`granflow.physics.momentum.base_pressure`; the pore-pressure gradient of the first
+    interior z-face). The basal shear stress ``2 eta_n S_xz`` is then ``Z p_wall`` for a film of
+    any thickness, where the centre pressure gives half the weight of a one-cell layer.
+    """
+    g, ops = model.grid, model.ops
+    nx, nz = g.cell_shape
+    p2 = np.asarray(p_eval, dtype=float).reshape(nx, nz)
+    phi2 = np.asarray(phi_e, dtype=float).reshape(nx, nz)
+    pf2 = np.asarray(p_f, dtype=float).reshape(nx, nz)
+    dpf = (pf2[:, 1] - pf2[:, 0]) / g.dz if nz > 1 else 0.0
+    p_wall = p2.copy()
+    p_wall[:, 0] = mom.base_pressure(p2[:, 0], phi2[:, 0], model.material.rho_s, abs(model.gravity[1]),
+                                     g.dz, dpf)
+    base = np.zeros((nx, nz), dtype=bool)
+    base[:, 0] = True
+    base = base.ravel() & np.asarray(dense, dtype=bool).ravel()
+    if not base.any():
+        return eta_n
+    eta_wall = np.where(base, model.coefficients(phi_e, p_wall.ravel(), S, dt, base).eta_c, eta_c)
+    nodes = np.zeros(g.node_shape, dtype=bool)
+    nodes[:, 0] = True
+    nodes = nodes.ravel()
+    out = np.array(eta_n, dtype=float)
+    out[nodes] = (ops.cell_to_node @ eta_wall)[nodes]
+    return out
+
+
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
     """Stage 2: the Picard loop (module docstring of :mod:`granflow.model`, step 2)."""
     g, ops = model.grid, model.ops
@@ -238,7 +273,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         if consistent:
             rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u, state.c)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
-        coef = model.coefficients(ex.phi_e, p_eval, ops.strain_rate_norm(u_k), dt, dense)
+        S_k = ops.strain_rate_norm(u_k)
+        coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0
             coef.C[ex.iso] = 0.0
@@ -247,6 +283,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
                              f"{coef.nonfinite}", sweeps)
         n_negz = max(n_negz, coef.n_negative_Z)
         eta_n = ops.cell_to_node @ coef.eta_c
+        if model.base_friction is BaseFriction.WALL and model.ops.bcs.bottom is VelocityBC.NO_SLIP:
+            eta_n = base_node_viscosity(model, ex.phi_e, dense, p_eval, state.p_f, S_k, dt, coef.eta_c, eta_n)
         mass = rho_k / dt + ex.drag
         a_data = model.assembler.velocity_data(mass, coef.eta_c, eta_n, ex.region)
         act = dense & ~free

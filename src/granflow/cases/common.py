@@ -85,7 +85,8 @@ def make_model(config: CaseConfig, **overrides: Any) -> Model:
         interface_packing=n.interface_packing, phi_tolerance=n.phi_tolerance,
         consistent_gravity=n.consistent_gravity, advection=n.advection, phi_transport=n.phi_transport,
         gravity_blend_velocity=n.gravity_blend_velocity, linear_solver=n.linear_solver,
-        isochoric_interface=n.isochoric_interface, surface=n.surface, **gas_options(config))
+        isochoric_interface=n.isochoric_interface, surface=n.surface, base_friction=n.base_friction,
+        **gas_options(config))
     unknown = set(overrides) - set(inspect.signature(Model).parameters)
     if unknown:
         raise GranflowInputError(f"make_model: Model has no option(s) {sorted(unknown)}")

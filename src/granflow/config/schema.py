@@ -205,6 +205,11 @@ class NumericsSection(Section):
         'ambient.phi_c is ambient) or "indicator" (a transported material fraction c; the closure '
         'at the packing phi/c; interface_packing, isochoric_interface, phi_transport and phi_c '
         'unused) [-]')
+    base_friction: Literal["centre", "wall"] | None = Field(
+        None, description='pressure of the friction on a no-slip base: "wall" (the bottom cells\' '
+        'viscosity at the pressure extrapolated to the wall: the basal yield stress is Z p_wall) or '
+        '"centre" (at their centre pressure, half a cell of weight short); default: "wall" with '
+        'surface = "indicator", else "centre" [-]')
     interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
     gravity_blend_velocity: float | None = Field(

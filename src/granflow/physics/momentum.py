@@ -189,6 +189,38 @@ def yield_viscosity(Z, p, S, eps: float) -> np.ndarray:
     return np.maximum(Z, 0.0) * np.maximum(p, 0.0) / (2.0 * np.sqrt(S * S + eps * eps))
 
 
+def base_pressure(p_bottom, phi_bottom, rho_s: float, g_normal: float, dz: float, dpf_dz=0.0) -> np.ndarray:
+    """Granular pressure at the base under the bottom row of cells [Pa].
+
+    The cells' centre pressure plus the half cell of effective weight between the centre and the
+    wall, from the normal component of the momentum balance at rest (paper eq. syst3b:
+    ``dp/dz = -phi rho_s g_n - dp_f/dz``):
+
+        p_w = max(p_1, 0) + max(phi_1 rho_s g_n + dp_f/dz, 0) dz / 2
+
+    With the indicator surface ``p_1`` of a thin cell is its mid-material pressure ``rho_s phi g_n
+    dz/2`` (:meth:`granflow.model.Model.lithostatic_pressure`), so ``p_w = rho_s phi g_n dz``, the
+    whole weight of the film.
+
+    Parameters
+    ----------
+    p_bottom, phi_bottom : array_like, (nx,)
+        Pressure [Pa] and solid fraction [-] of the bottom cells.
+    rho_s : float
+        Grain density [kg m^-3].
+    g_normal : float
+        Gravity component towards the base [m s^-2] (``g cos(slope)``).
+    dz : float
+        Cell height [m].
+    dpf_dz : array_like, (nx,) or float
+        Pore-pressure gradient over the bottom cells [Pa m^-1] (negative where gas supports the
+        grains); 0 when dry.
+    """
+    p, phi = (np.asarray(x, dtype=float) for x in (p_bottom, phi_bottom))
+    weight = np.maximum(phi * rho_s * g_normal + np.asarray(dpf_dz, dtype=float), 0.0)
+    return np.maximum(p, 0.0) + HALF * dz * weight
+
+
 class GasBorder(NamedTuple):
     """The pore-pressure border of the saddle-point matrix (:meth:`SaddleAssembler.saddle`)."""
 
