@@ -4,8 +4,9 @@ The file has an UNLIMITED ``time`` dimension (seconds since the start of the run
 stored with dimensions :data:`FIELD_DIMS` = (time, z, x), the CF/COARDS order (T, Z, Y, X: x
 varies fastest) that ncview, Panoply and cdo expect; the solver's arrays are (x, z), and readers
 take the fields by dimension name (:func:`ordered`), so files written before with (time, x, z)
-still read. Every coordinate and variable carries ``units`` and ``long_name``; the global attributes hold the provenance: granflow
-version, git revision, the full case-file text, creation time and history (STYLE.md idiom 8).
+still read. Every coordinate and variable carries ``units`` and ``long_name``; the global
+attributes hold the provenance: granflow version, git revision, the full case-file text, creation
+time and history (STYLE.md idiom 8).
 
 Crash safety: after each :meth:`NetCDFWriter.append` the file is synced (``nc_sync``), so a run that
 is killed, even by ``kill -9``, leaves a file that ``xarray.open_dataset`` reads up to the last
@@ -317,9 +318,9 @@ class NetCDFWriter:
 
         The records of the existing file ``path`` with time <= ``t_restart`` are copied (bit for
         bit, transposed by dimension name when the file has another order, e.g. (time, x, z)
-        written before :data:`FIELD_DIMS`) into a new file with the given declarations (same arguments as the constructor); the
-        new file then replaces ``path`` atomically, so an interrupted resume leaves the old file
-        intact. Records written after the checkpoint by the killed run are dropped, since the
+        written before :data:`FIELD_DIMS`) into a new file with the given declarations (same
+        arguments as the constructor); the new file then replaces ``path`` atomically, so an
+        interrupted resume leaves the old file intact. Records written after the checkpoint by the killed run are dropped, since the
         restarted run writes them again; its next :meth:`append` must have time > ``t_restart``.
 
         Raises
