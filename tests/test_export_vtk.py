@@ -67,7 +67,8 @@ def test_export_vtk_round_trip(tmp_path, capsys):
             for name in ("phi", "p", "p_f", "S", "u", "w"):
                 ref = ds[name][k].transpose("z", "x").values.ravel()  # x fastest, then z
                 np.testing.assert_allclose(v["scalars"][name], ref, rtol=1e-8, atol=1e-12 * (1 + abs(ref).max()))
-            np.testing.assert_allclose(v["velocity"][:, 0], ds["u"][k].transpose("z", "x").values.ravel(), rtol=1e-8, atol=1e-15)
+            u_ref = ds["u"][k].transpose("z", "x").values.ravel()
+            np.testing.assert_allclose(v["velocity"][:, 0], u_ref, rtol=1e-8, atol=1e-15)
             assert np.all(v["velocity"][:, 2] == 0)
 
 

@@ -104,7 +104,8 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
         thr = s["front_position"]["threshold_m"]
         assert thr == pytest.approx(0.05 * 0.1, rel=1e-14)  # column_collapse default: 0.05 H0
         assert ds.attrs["front_threshold_m"] == thr
-        fronts = [front_from_phi(ds["phi"][i].transpose("x", "z").values, edges, 0.025, thr) for i in range(ds.sizes["time"])]
+        fronts = [front_from_phi(ds["phi"][i].transpose("x", "z").values, edges, 0.025, thr)
+                  for i in range(ds.sizes["time"])]
         assert s["front_position"]["x_m"] == pytest.approx(fronts, abs=1e-12)
         # one definition: the accessor, the x_front series and the summary give the same fronts
         assert ds.granflow.front_position().values.tolist() == pytest.approx(fronts, abs=1e-12)

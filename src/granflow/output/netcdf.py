@@ -320,8 +320,9 @@ class NetCDFWriter:
         bit, transposed by dimension name when the file has another order, e.g. (time, x, z)
         written before :data:`FIELD_DIMS`) into a new file with the given declarations (same
         arguments as the constructor); the new file then replaces ``path`` atomically, so an
-        interrupted resume leaves the old file intact. Records written after the checkpoint by the killed run are dropped, since the
-        restarted run writes them again; its next :meth:`append` must have time > ``t_restart``.
+        interrupted resume leaves the old file intact. Records written after the checkpoint by
+        the killed run are dropped, since the restarted run writes them again; its next
+        :meth:`append` must have time > ``t_restart``.
 
         Raises
         ------
