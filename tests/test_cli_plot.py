@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from granflow.cli import ExitCode, main
+from granflow.output import ordered
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
@@ -99,13 +100,12 @@ def test_snapshot_draws_the_field_surface_and_units(run_dir, var):
     index = 2
     with netCDF4.Dataset(run_dir / "output.nc") as nc:
         phi_c = tomllib.loads(nc.getncattr("config_effective"))["numerics"]["ambient"]["phi_c"]
-        grains = np.asarray(nc["phi"][index], dtype=float) >= phi_c
+        grains = ordered(nc["phi"])[index] >= phi_c  # (x, z)
         if var == "speed":  # a grain quantity: blank in the ambient (issue 16 item 4)
-            expected = np.where(grains, np.hypot(np.asarray(nc["u"][index]), np.asarray(nc["w"][index])),
-                                np.nan)
+            expected = np.where(grains, np.hypot(ordered(nc["u"])[index], ordered(nc["w"])[index]), np.nan)
             label = f"grain speed |u|, grains only (phi >= {phi_c:g}) [{nc['u'].units}]"
         else:
-            expected = np.asarray(nc[var][index], dtype=float)
+            expected = ordered(nc[var])[index].astype(float)
             label = f"{nc[var].long_name} [{nc[var].units}]"
     with xr.open_dataset(run_dir / "output.nc") as ds:
         fig, ax = plt.subplots()
@@ -136,7 +136,7 @@ def test_snapshot_marks_the_front_with_the_runs_definition(run_dir):
     index = N_RECORDS - 1
     with netCDF4.Dataset(run_dir / "output.nc") as nc:
         x, z = np.asarray(nc["x"][:]), np.asarray(nc["z"][:])
-        phi = np.asarray(nc["phi"][index], dtype=float)
+        phi = ordered(nc["phi"])[index].astype(float)  # (x, z)
         h = phi.sum(axis=1) * (z[1] - z[0]) / nc["phi"].phi_max
         threshold = nc.getncattr("front_threshold_m")
     dx = x[1] - x[0]

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from granflow.cli import ExitCode, main
+from granflow.output import ordered
 
 ROOT = Path(__file__).resolve().parents[1]
 NX, NZ, LX, LZ = 16, 6, 0.4, 0.15
@@ -93,7 +94,7 @@ def fronts_from_nc(path: Path) -> list[float]:
     edges = np.linspace(0.0, LX, NX + 1)
     dz = LZ / NZ
     with netCDF4.Dataset(path) as ds:
-        phi = np.asarray(ds["phi"][:], dtype=float)
+        phi = ordered(ds["phi"]).astype(float)  # (time, x, z)
     out = []
     for rec in phi:
         h = rec.sum(axis=1) * dz / PHI_MAX

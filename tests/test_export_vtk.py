@@ -65,9 +65,10 @@ def test_export_vtk_round_trip(tmp_path, capsys):
             np.testing.assert_allclose(v["Y_COORDINATES"], np.arange(7) * dz, atol=1e-12)
             assert v["time"] == float(ds["time"][k])
             for name in ("phi", "p", "p_f", "S", "u", "w"):
-                ref = ds[name][k].values.T.ravel()  # x fastest, then z
+                ref = ds[name][k].transpose("z", "x").values.ravel()  # x fastest, then z
                 np.testing.assert_allclose(v["scalars"][name], ref, rtol=1e-8, atol=1e-12 * (1 + abs(ref).max()))
-            np.testing.assert_allclose(v["velocity"][:, 0], ds["u"][k].values.T.ravel(), rtol=1e-8, atol=1e-15)
+            u_ref = ds["u"][k].transpose("z", "x").values.ravel()
+            np.testing.assert_allclose(v["velocity"][:, 0], u_ref, rtol=1e-8, atol=1e-15)
             assert np.all(v["velocity"][:, 2] == 0)
 
 

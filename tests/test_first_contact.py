@@ -18,6 +18,7 @@ import pytest
 from granflow.cases import CASES
 from granflow.cli import ExitCode, main
 from granflow.config import load_case
+from granflow.output import ordered
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -235,7 +236,7 @@ def test_snapshot_speed_contours_are_grain_only_labelled_and_above_noise(tmp_pat
     assert contours, "the moving column has speed contours"
     with netCDF4.Dataset(out / "output.nc") as nc:
         x, z = np.asarray(nc["x"][:]), np.asarray(nc["z"][:])
-        phi = np.asarray(nc["phi"][:], dtype=float)
+        phi = ordered(nc["phi"]).astype(float)  # (time, x, z)
         phi_c = float(nc.getncattr("phi_c"))
         rest = float(nc.getncattr("rest_speed"))
     dx, dz = x[1] - x[0], z[1] - z[0]
@@ -402,8 +403,8 @@ def test_inclined_figure_is_u_of_z_against_bagnold(tmp_path, capsys, monkeypatch
     assert max(bagnold.get_xdata()) == pytest.approx(d["u_surface_bagnold_m_s"], rel=1e-12)
     assert max(bagnold.get_ydata()) == pytest.approx(d["h_m"], rel=1e-12)
     with netCDF4.Dataset(out / "output.nc") as nc:
-        u = np.asarray(nc["u"][-1], dtype=float)
-        grains = np.asarray(nc["phi"][-1], dtype=float) >= nc.getncattr("phi_c")
+        u = ordered(nc["u"])[-1].astype(float)  # (x, z)
+        grains = ordered(nc["phi"])[-1] >= nc.getncattr("phi_c")
     import warnings
 
     with warnings.catch_warnings():  # the ambient rows have no grain cell: NaN

@@ -25,6 +25,7 @@ from granflow.cases import preparation as prep
 from granflow.cli import ExitCode, main
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
+from granflow.output import ordered
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "column_collapse_injected.toml"
@@ -180,7 +181,7 @@ def test_injected_example_runs_and_reports_the_preparation(tmp_path, capsys):
     assert d["prep_bed_height_m"] == pytest.approx(H0, rel=1e-9)
     with netCDF4.Dataset(out / "output.nc") as ds:
         z = np.asarray(ds["z"][:])
-        p_f0 = np.asarray(ds["p_f"][0])
+        p_f0 = ordered(ds["p_f"])[0]  # (x, z)
     k = D**2 * (1 - PHI) ** 3 / (150 * PHI**2)
     ref = 0.5 * darcy_u_mf(PHI) * ETA_F * (H0 - z[z < H0]) / k
     assert np.abs(p_f0[:2, z < H0] - ref[None, :]).max() <= 2e-3 * PHI * RHO_S * G * H0

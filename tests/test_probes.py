@@ -28,8 +28,8 @@ def test_probes_record_the_basal_pore_pressure(tmp_path):
         assert ds["probe_p_f"].dims == ("time", "x_probe") and ds["probe_p_f"].attrs["units"] == "Pa"
         np.testing.assert_allclose(ds["x_probe"], [0.0125, 0.0375, 0.2875])  # centres of cells 0, 1, 11
         for k, cell in enumerate((0, 1, 11)):
-            np.testing.assert_array_equal(ds["probe_p_f"][:, k], ds["p_f"][:, cell, 0])
-            np.testing.assert_array_equal(ds["probe_p"][:, k], ds["p"][:, cell, 0])
+            np.testing.assert_array_equal(ds["probe_p_f"][:, k], ds["p_f"].isel(x=cell, z=0))
+            np.testing.assert_array_equal(ds["probe_p"][:, k], ds["p"].isel(x=cell, z=0))
         # t = 0: p_f = b0 x the discrete lithostatic pressure at the bottom centre of a full column,
         # phi0 rho_s g (H0 - dz/2) for the 4 cells under H0 = 0.1 m (dz = 0.025 m)
         expected = 0.9 * 0.58 * 2500.0 * 9.81 * (0.1 - 0.0125)

@@ -70,7 +70,7 @@ def test_run_writes_a_self_describing_netcdf(tiny_run):
         assert ds["time"].attrs["units"] == "s"
         assert ds["x"].attrs["units"] == "m" and ds["z"].attrs["units"] == "m"
         assert set(ds.data_vars) >= {"phi", "u", "w", "p", "p_f", "S"}
-        assert ds["phi"].dims == ("time", "x", "z") and ds["phi"].shape[1:] == (16, 6)
+        assert ds["phi"].dims == ("time", "z", "x") and ds["phi"].shape[1:] == (6, 16)  # CF order
         assert ds.attrs["case_file"] == EXAMPLE.read_text()
         assert ds.attrs["granflow_version"] and "config_effective" in ds.attrs
         np.testing.assert_allclose(ds["time"].values, np.arange(6) * 0.01, rtol=0, atol=1e-12)
@@ -104,7 +104,8 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
         thr = s["front_position"]["threshold_m"]
         assert thr == pytest.approx(0.05 * 0.1, rel=1e-14)  # column_collapse default: 0.05 H0
         assert ds.attrs["front_threshold_m"] == thr
-        fronts = [front_from_phi(ds["phi"][i].values, edges, 0.025, thr) for i in range(ds.sizes["time"])]
+        fronts = [front_from_phi(ds["phi"][i].transpose("x", "z").values, edges, 0.025, thr)
+                  for i in range(ds.sizes["time"])]
         assert s["front_position"]["x_m"] == pytest.approx(fronts, abs=1e-12)
         # one definition: the accessor, the x_front series and the summary give the same fronts
         assert ds.granflow.front_position().values.tolist() == pytest.approx(fronts, abs=1e-12)
@@ -113,7 +114,7 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
         assert s["runout_m"] == pytest.approx(fronts[-1] - fronts[0], abs=1e-12)
         assert float(ds.granflow.runout(threshold=thr)) == pytest.approx(s["runout_m"], abs=1e-12)
         assert float(ds.granflow.runout()) == pytest.approx(s["runout_m"], abs=1e-12)  # the run's threshold
-        h_wall = float(ds["phi"][-1, 0].sum()) * 0.025 / PHI_MAX
+        h_wall = float(ds["phi"].isel(time=-1, x=0).sum()) * 0.025 / PHI_MAX
         assert s["final_height_at_wall"] == pytest.approx(h_wall, rel=1e-12)
     assert (out / "checkpoints" / "checkpoint_00000050.npz").is_file()
 
@@ -370,7 +371,7 @@ def test_flagship_fluidised_example_smoke(capsys, tmp_path):
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "completed" and abs(s["mass_rel_error"]) <= 1e-12
     with xr.open_dataset(out / "output.nc") as ds:
-        pf0 = ds["p_f"][0].values
+        pf0 = ds["p_f"][0].transpose("x", "z").values
         # b0 = 0.9 of the lithostatic pressure of a column at phi0 = 0.58: basal cell centre value.
         dz = 0.15 / 6
         expected = 0.9 * 0.58 * 2500.0 * 9.81 * (0.1 - dz / 2)

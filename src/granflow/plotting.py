@@ -283,8 +283,8 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     for k, i in enumerate(picks):
         snap = ds.isel(time=i)
         ax = axes[0, k]
-        m = ax.pcolormesh(x, z, snap["phi"].values.T, vmin=0.0, vmax=float(ds.attrs.get("phi_max", 0.6)),
-                          cmap="YlOrBr", shading="auto")
+        m = ax.pcolormesh(x, z, snap["phi"].transpose("z", "x").values, vmin=0.0,
+                          vmax=float(ds.attrs.get("phi_max", 0.6)), cmap="YlOrBr", shading="auto")
         if "u" in snap and "w" in snap:
             speed_contours(ax, ds, i)
         draw_front(ax, ds, i)
@@ -295,7 +295,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         fig.colorbar(m, ax=ax, shrink=0.8)
         if has_pf:
             ax = axes[1, k]
-            m = ax.pcolormesh(x, z, snap["p_f"].values.T, cmap="viridis", shading="auto")
+            m = ax.pcolormesh(x, z, snap["p_f"].transpose("z", "x").values, cmap="viridis", shading="auto")
             ax.set_aspect("equal" if equal_aspect(ds) else "auto")
             ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
             ax.set_xlabel(f"x [{lu}]")

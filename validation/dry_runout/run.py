@@ -154,10 +154,12 @@ def extract(run_dir: Path) -> dict:
     furthest and highest grain per record [m]."""
     import netCDF4
 
+    from granflow.output import ordered
+
     with netCDF4.Dataset(run_dir / "output.nc") as ds:
         t = np.asarray(ds["time"][:], dtype=float)
         x, z = np.asarray(ds["x"][:], dtype=float), np.asarray(ds["z"][:], dtype=float)
-        phi = np.asarray(ds["phi"][:], dtype=float)  # (time, x, z)
+        phi = ordered(ds["phi"]).astype(float)  # (time, x, z), whatever the order in the file
         dx, dz = x[1] - x[0], z[1] - z[0]
         full = phi > REACH_PHI
         reach = np.array([x[np.flatnonzero(f.any(axis=1))[-1]] + dx / 2 for f in full])

@@ -160,7 +160,7 @@ def run_one(a: float, state: str, dx: float, directory: Path | None = None) -> d
     geo = geometry(a, dx)
     with xr.open_dataset(directory / "output.nc") as ds:
         t = ds["time"].values.astype(float)
-        phi = ds["phi"].values  # (time, x, z)
+        phi = ds["phi"].transpose("time", "x", "z").values  # by name: the file is (time, z, x)
         x = ds["x"].values
         dz = float(ds["z"].values[1] - ds["z"].values[0])
         reach = [float(x[np.flatnonzero(ph.max(axis=1) > REACH_PHI)[-1]] + dx / 2) for ph in phi]

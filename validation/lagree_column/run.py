@@ -52,6 +52,7 @@ import numpy as np
 from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import CaseConfig
+from granflow.output import ordered
 from granflow.verification.convergence import richardson  # noqa: F401  (dry_runout, fluidised_vs_dry use LAG.richardson)
 
 HERE = Path(__file__).resolve().parent
@@ -175,7 +176,7 @@ def extract(run_dir: Path, keep_fields: bool) -> dict:
     with netCDF4.Dataset(run_dir / "output.nc") as ds:
         t = np.asarray(ds["time"][:], dtype=float)
         x, z = np.asarray(ds["x"][:], dtype=float), np.asarray(ds["z"][:], dtype=float)
-        phi = np.asarray(ds["phi"][:], dtype=float)
+        phi = ordered(ds["phi"]).astype(float)  # (time, x, z), whatever the order in the file
         out = {"t": t, "x": x, "z": z, "ke": np.asarray(ds["kinetic_energy"][:], dtype=float),
                "h": (phi.sum(axis=2) * (z[1] - z[0]) / PHI_MAX).astype(np.float32)}
         if keep_fields:
@@ -183,7 +184,7 @@ def extract(run_dir: Path, keep_fields: bool) -> dict:
             idx = [int(np.argmin(np.abs(t - tf))) for tf in wanted]
             out["field_t"] = t[idx]
             for name in ("phi", "u", "w", "p", "S"):
-                out[name] = np.asarray(ds[name][:], dtype=float)[idx].astype(np.float32)
+                out[name] = ordered(ds[name])[idx].astype(np.float32)  # (time, x, z)
     return out
 
 

@@ -41,6 +41,7 @@ from granflow.cases.wall_contact import WallWatch, warning_text
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.output import (
+    FIELD_DIMS,
     CheckpointManager,
     NetCDFWriter,
     VariableSpec,
@@ -61,7 +62,8 @@ REST_SPEED_FACTOR = 10.0
 """Default rest speed = REST_SPEED_FACTOR eps Lz [m s^-1] (eps Lz is the creep speed scale)."""
 EVERY_STEP = 1
 
-#: NetCDF declarations of the cell-centred fields (name -> units, long_name).
+#: NetCDF declarations of the cell-centred fields (name -> units, long_name), stored (time, z, x);
+#: long_name only: no CF standard name describes a grain-phase quantity (solid fraction, pressure...).
 FIELD_SPECS = {
     "phi": ("1", "solid volume fraction"),
     "u": ("m s-1", "horizontal solid velocity (cell-centred mean of the face values)"),
@@ -220,7 +222,7 @@ class CaseRun:
         for name in self.config.output.fields:
             units, long_name = FIELD_SPECS[name]
             attrs = {"phi_max": self.phi_max} if name == "phi" else None
-            variables[name] = VariableSpec(("time", "x", "z"), unit(SI_KIND.get(units, units)), long_name,
+            variables[name] = VariableSpec(FIELD_DIMS, unit(SI_KIND.get(units, units)), long_name,
                                            attrs=attrs)
         for name, (units, long_name) in SERIES_SPECS.items():
             variables[name] = VariableSpec(("time",), unit(SI_KIND.get(units, units)), long_name)
@@ -270,7 +272,7 @@ class CaseRun:
         all_fields = {"phi": st.phi, "u": 0.5 * (u[1:, :] + u[:-1, :]), "w": 0.5 * (w[:, 1:] + w[:, :-1]),
                       "p": st.p, "p_f": st.p_f,
                       "S": self.sim.model.ops.strain_rate_norm(st.vel).reshape(g.cell_shape)}
-        return {k: all_fields[k] for k in self.config.output.fields}
+        return {k: all_fields[k].T for k in self.config.output.fields}  # (x, z) -> (z, x) on disk
 
     def front(self) -> float:
         """Front position of the current state [m] (nan if no column is above the threshold)."""

@@ -24,6 +24,8 @@ GIF_SUFFIX = ".gif"
 TIME_RTOL = 1e-9
 """Relative tolerance (of the time span, at least 1 s) on --time at the ends of the records."""
 DIMS = ("time", "x", "z")
+"""Dimensions a run output must have, in any order (the fields are (time, z, x) on disk, (time,
+x, z) in files written before; the plotting reads them by name)."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -12,14 +12,19 @@ from granflow.output.checkpoint import (
     save_checkpoint,
 )
 from granflow.output.netcdf import (
+    ARRAY_DIMS,
+    FIELD_DIMS,
     NetCDFFormat,
     NetCDFWriter,
     VariableSpec,
     git_revision,
+    ordered,
 )
 from granflow.output.summary import atomic_write, jsonable, write_json_atomic
 
 __all__ = [
+    "ARRAY_DIMS",
+    "FIELD_DIMS",
     "CheckpointError",
     "CheckpointManager",
     "Direction",
@@ -32,6 +37,7 @@ __all__ = [
     "git_revision",
     "jsonable",
     "load_checkpoint",
+    "ordered",
     "save_checkpoint",
     "write_json_atomic",
 ]

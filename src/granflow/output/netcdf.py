@@ -1,8 +1,12 @@
 """Self-describing, crash-safe NetCDF output (CF-1.10 attributes), written one time level at a time.
 
-The file has an UNLIMITED ``time`` dimension (seconds since the start of the run). Every coordinate
-and variable carries ``units`` and ``long_name``; the global attributes hold the provenance: granflow
-version, git revision, the full case-file text, creation time and history (STYLE.md idiom 8).
+The file has an UNLIMITED ``time`` dimension (seconds since the start of the run). A 2-D field is
+stored with dimensions :data:`FIELD_DIMS` = (time, z, x), the CF/COARDS order (T, Z, Y, X: x
+varies fastest) that ncview, Panoply and cdo expect; the solver's arrays are (x, z), and readers
+take the fields by dimension name (:func:`ordered`), so files written before with (time, x, z)
+still read. Every coordinate and variable carries ``units`` and ``long_name``; the global
+attributes hold the provenance: granflow version, git revision, the full case-file text, creation
+time and history (STYLE.md idiom 8).
 
 Crash safety: after each :meth:`NetCDFWriter.append` the file is synced (``nc_sync``), so a run that
 is killed, even by ``kill -9``, leaves a file that ``xarray.open_dataset`` reads up to the last
@@ -32,10 +36,14 @@ from granflow.errors import GranflowInputError
 
 #: Name of the unlimited record dimension and coordinate.
 TIME_DIM = "time"
-#: Attributes of the time coordinate: elapsed simulation time in seconds (CF reserves
-#: ``standard_name = "time"`` for times with a reference date, so none is set).
+#: Attributes of the time coordinate: elapsed simulation time in seconds (a dimensionless case
+#: replaces the units, and the writer then drops the CF ``standard_name``).
 TIME_ATTRS = {"units": "s", "long_name": "time since the start of the run", "axis": "T",
               "standard_name": "time"}
+#: Dimensions of a 2-D field on disk: CF/COARDS order (time, z, x), x varying fastest.
+FIELD_DIMS = (TIME_DIM, "z", "x")
+#: Order of the solver's arrays (x, z) with time first, in which readers usually want a field.
+ARRAY_DIMS = (TIME_DIM, "x", "z")
 #: CF version whose attribute conventions the files follow.
 CONVENTIONS = "CF-1.10"
 #: Seconds allowed for each ``git`` call of :func:`git_revision`.
@@ -64,7 +72,8 @@ class VariableSpec:
     ----------
     dims : tuple of str
         Dimension names, ``"time"`` first, then names of coordinates given to the writer,
-        e.g. ``("time", "x", "z")``.
+        e.g. :data:`FIELD_DIMS` ``("time", "z", "x")``; the arrays given to
+        :meth:`NetCDFWriter.append` are shaped as the dims after ``"time"``.
     units : str
         UDUNITS-compatible units (``"1"`` for dimensionless, e.g. the packing fraction).
     long_name : str
@@ -134,6 +143,50 @@ def _attr_value(key: str, value: Any) -> Any:
     if arr.ndim == 1 and arr.dtype.kind in "iuf":
         return arr
     raise GranflowInputError(f"attribute {key!r}: cannot store a {type(value).__name__} in NetCDF")
+
+
+def _dims_of(var: Any) -> tuple[str, ...]:
+    """Dimension names of a netCDF4 ``Variable`` (``dimensions``) or an xarray ``DataArray``."""
+    dims = getattr(var, "dimensions", None)
+    return tuple(dims if dims is not None else var.dims)
+
+
+def axis_order(have: tuple[str, ...], want: tuple[str, ...], name: str = "variable") -> list[int]:
+    """Axes of an array with dimensions ``have`` that put them in the order ``want`` (by name).
+
+    Raises
+    ------
+    GranflowInputError
+        If ``have`` and ``want`` are not the same dimension names.
+    """
+    if sorted(have) != sorted(want):
+        raise GranflowInputError(f"{name}: dimensions {tuple(have)}, expected {tuple(want)} in any order")
+    return [have.index(d) for d in want]
+
+
+def ordered(var: Any, dims: tuple[str, ...] = ARRAY_DIMS) -> np.ndarray:
+    """The values of a netCDF4 ``Variable`` or an xarray ``DataArray`` with their axes in the
+    order ``dims``, matched by name, in the variable's units.
+
+    The default :data:`ARRAY_DIMS` gives a 2-D field as (time, x, z) from a file written in the
+    CF order (time, z, x) and from an older one written in (time, x, z) alike.
+
+    Raises
+    ------
+    GranflowInputError
+        If the variable's dimensions are not those of ``dims``.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> da = xr.DataArray(np.arange(6.0).reshape(1, 2, 3), dims=("time", "z", "x"))
+    >>> ordered(da).shape
+    (1, 3, 2)
+    """
+    have = _dims_of(var)
+    axes = axis_order(have, tuple(dims), str(getattr(var, "name", "variable")))
+    values = var.values if hasattr(var, "dims") else var[...]
+    return np.transpose(np.asarray(values), axes)
 
 
 class NetCDFWriter:
@@ -264,15 +317,18 @@ class NetCDFWriter:
         """Continue the output of a run restarted from a checkpoint at time ``t_restart`` [s].
 
         The records of the existing file ``path`` with time <= ``t_restart`` are copied (bit for
-        bit) into a new file with the given declarations (same arguments as the constructor); the
-        new file then replaces ``path`` atomically, so an interrupted resume leaves the old file
-        intact. Records written after the checkpoint by the killed run are dropped, since the
-        restarted run writes them again; its next :meth:`append` must have time > ``t_restart``.
+        bit, transposed by dimension name when the file has another order, e.g. (time, x, z)
+        written before :data:`FIELD_DIMS`) into a new file with the given declarations (same
+        arguments as the constructor); the new file then replaces ``path`` atomically, so an
+        interrupted resume leaves the old file intact. Records written after the checkpoint by
+        the killed run are dropped, since the restarted run writes them again; its next
+        :meth:`append` must have time > ``t_restart``.
 
         Raises
         ------
         GranflowInputError
-            If ``path`` cannot be read or lacks a declared variable.
+            If ``path`` cannot be read or lacks a declared variable, or a variable's dimensions
+            there are not the declared ones (in some order).
         """
         path = Path(path)
         try:
@@ -288,12 +344,15 @@ class NetCDFWriter:
                 raise GranflowInputError(f"cannot resume output {path}: no variable(s) {missing}")
             times = np.asarray(old.variables[TIME_DIM][:], dtype=float)
             keep = int(np.count_nonzero(times <= t_restart))
+            axes = {v: axis_order(old.variables[v].dimensions[1:], spec.dims[1:], f"{path}: {v}")
+                    for v, spec in variables.items()}  # non-time axes, old file -> declared order
             created = getattr(old, "created", "?")
             writer = cls(tmp, coords, variables, global_attrs, **kwargs)
             writer._ds.history = (f"{writer._ds.history}\n{writer._ds.created}: restarted at "
                                   f"t = {t_restart!r} s (output first created {created})")
             for i in range(keep):
-                writer.append(times[i], {v: old.variables[v][i, ...] for v in variables})
+                writer.append(times[i], {v: np.transpose(old.variables[v][i, ...], axes[v])
+                                         for v in variables})
         except BaseException:
             if writer is not None:
                 writer.close()

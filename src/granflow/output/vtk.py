@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-#: Fields exported as scalars when present (cell-centred, dims (time, x, z)).
+#: Fields exported as scalars when present (cell-centred, dims time, z and x, in any order).
 SCALARS = ("phi", "p", "p_f", "S", "u", "w")
 
 
@@ -29,13 +29,19 @@ def _edges(centres: np.ndarray) -> np.ndarray:
     return edges
 
 
+def _zx(field) -> np.ndarray:
+    """The values of a record's field as (z, x), whatever the order of its dimensions in the file:
+    VTK cell order is x fastest, then z."""
+    return np.asarray(field.transpose("z", "x").values, dtype=float)
+
+
 def _values(a: np.ndarray) -> str:
-    """VTK order: x fastest, then z (arrays are (x, z))."""
-    return "\n".join(" ".join(f"{v:.9g}" for v in row) for row in np.asarray(a, dtype=float).T)
+    """VTK order: x fastest, then z (``a`` is (z, x), :func:`_zx`)."""
+    return "\n".join(" ".join(f"{v:.9g}" for v in row) for row in a)
 
 
 def write_record(ds, record: int, path: str | Path) -> Path:
-    """Write record ``record`` of a run Dataset (dims time, x, z) to ``path``."""
+    """Write record ``record`` of a run Dataset (fields over time, z, x in any order) to ``path``."""
     snap = ds.isel(time=record)
     xe, ze = _edges(ds["x"].values), _edges(ds["z"].values)
     nx, nz = ds.sizes["x"], ds.sizes["z"]
@@ -54,9 +60,9 @@ def write_record(ds, record: int, path: str | Path) -> Path:
     ]
     for name in SCALARS:
         if name in snap:
-            lines += [f"SCALARS {name} double 1", "LOOKUP_TABLE default", _values(snap[name].values)]
+            lines += [f"SCALARS {name} double 1", "LOOKUP_TABLE default", _values(_zx(snap[name]))]
     if "u" in snap and "w" in snap:
-        u, w = snap["u"].values.T.ravel(), snap["w"].values.T.ravel()
+        u, w = _zx(snap["u"]).ravel(), _zx(snap["w"]).ravel()
         lines += ["VECTORS velocity double",
                   "\n".join(f"{a:.9g} {b:.9g} 0" for a, b in zip(u, w))]
     path = Path(path)
