@@ -13,12 +13,24 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
-# The console script's body, with a line on stdout once ``main`` is about to run: the signal is
-# sent after it, so it cannot land before granflow's handler exists (Python would then die of the
-# signal, returncode -2, which is not what is tested), and it lands while ``granflow run`` is
-# still importing the solver and loading the case (about a second), long before the first step.
-CHILD = ("import sys; from granflow.cli import main; print('ready', flush=True); "
-         "sys.exit(main())")
+# The console script's body, with a line on stdout once ``main`` has entered its ``try`` (printed
+# from build_parser, its first call): the signal is sent after it, so it cannot land before
+# granflow's handler exists (a KeyboardInterrupt outside ``main`` makes Python die of the signal,
+# returncode -2, which is not what is tested: printing before calling ``main`` left a few bytecodes
+# of that window open, and the test failed about once in four runs on a loaded machine), and it
+# lands while ``granflow run`` is still importing the solver and loading the case (about a second),
+# long before the first step.
+CHILD = "\n".join([
+    "import sys",
+    "import granflow.cli as cli",
+    "build = cli.build_parser",
+    "def build_parser():",
+    "    parser = build()",
+    "    print('ready', flush=True)",
+    "    return parser",
+    "cli.build_parser = build_parser",
+    "sys.exit(cli.main())",
+])
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
