@@ -269,6 +269,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"Basilisk h(x) at t = 4, x = {PROFILE_X[0]:g}, {PROFILE_X[1]:g}, ..., {PROFILE_X[-1]:g}:")
     for n in resolutions:
         print(f"  {n}^2 " + " ".join(fmt(h) for h in runs[(n, 'basilisk')][0].profile))
+    print("h(x) at t = 4, x = 0, 0.5, ..., 3.5 (granflow's final_profile stations):")
+    for n in resolutions:
+        for code in codes:
+            prof = runs[(n, code)][0].profile
+            prof = prof[::2] if code == "basilisk" else prof  # Basilisk's stations are every 0.25
+            print(f"  {n}^2 {code:10s} " + " ".join(fmt(h) for h in prof))
     return 0
 
 
