@@ -208,11 +208,11 @@ class Model:
                  interface_packing: bool = True,
                  phi_tolerance: float = DEFAULT_PHI_TOLERANCE, consistent_gravity: bool = True,
                  gravity_blend_velocity: float | None = None,
-                 advection: mom.Advection | str = mom.Advection.UPWIND,
+                 advection: mom.Advection | str = mom.Advection.CONSISTENT,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
                  linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
                  isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
-                 surface: Surface | str = Surface.THRESHOLD,
+                 surface: Surface | str = Surface.INDICATOR,
                  base_friction: BaseFriction | str | None = None) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
@@ -531,7 +531,8 @@ class Model:
 
     # --- one step -----------------------------------------------------------------------------
     def advance(self, state: State, dt: float) -> StepReport:
-        """Advance ``state`` in place by ``dt`` [s]; on FAILED the state is left unchanged.
+        """Advance ``state`` in place by ``dt`` [s]; on FAILED the state is left unchanged (but for
+        ``state.c``: a state without it gets :meth:`material_of` its ``phi`` first).
 
         The stages (:mod:`granflow.step`): explicit t^n terms, the implicit Picard solve, the
         energy terms, the phi transport; then the gas powers and the state update.
@@ -542,9 +543,8 @@ class Model:
         """
         if not (np.isfinite(dt) and dt > 0):
             raise GranflowInputError(f"Model.advance: dt must be > 0, got {dt!r}")
-        if self.indicator and state.c is None:
-            raise GranflowInputError("Model.advance: the indicator surface needs the material fraction "
-                                     "state.c (build the state with Model.initial_state)")
+        if self.indicator and state.c is None:  # a State built without c: c from phi, once
+            state.c = self.material_of(state.phi)
         tim = {"assembly": 0.0, "solve": 0.0, "transport": 0.0}
         sweeps = 0
         try:

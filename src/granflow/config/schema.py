@@ -195,13 +195,13 @@ class NumericsSection(Section):
     delta_p: float = Field(DEFAULT_DELTA_P, gt=0, description="pressure offset of the sqrt(p) "
                            "linearisation and of I at p -> 0 [Pa]")
     advection: Literal["upwind", "muscl", "consistent"] = Field(
-        "upwind", description='momentum advection scheme: "upwind", "muscl" (non-conservative '
+        "consistent", description='momentum advection scheme: "upwind", "muscl" (non-conservative '
         '(u.grad)u) or "consistent" (conservative, with the phi transport\'s mass fluxes) [-]')
     phi_transport: Literal["muscl", "sharp"] = Field(
         "muscl", description='face values of the phi transport: "muscl" (MUSCL-minmod) or "sharp" '
         '(MUSCL-THINC-BVD, the free surface kept within 1-2 cells) [-]')
     surface: Literal["threshold", "indicator"] = Field(
-        "threshold", description='how grains are told from the ambient: "threshold" (phi < '
+        "indicator", description='how grains are told from the ambient: "threshold" (phi < '
         'ambient.phi_c is ambient) or "indicator" (a transported material fraction c; the closure '
         'at the packing phi/c; interface_packing, isochoric_interface, phi_transport and phi_c '
         'unused) [-]')
