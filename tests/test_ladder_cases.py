@@ -258,6 +258,9 @@ def test_inclined_layer_bad_inputs():
     assert "gravity.slope_deg" in msg and "no steady uniform flow" in msg
     assert "setup.beta" in bad("inclined_layer", "setup.beta=0.3")          # tan 25/0.7 > mu2
     assert "setup.beta" in bad("inclined_layer", "setup.beta=0.15")         # no gas law
+    # tan 28/0.85 = 0.626 < mu2, but I_theta = 3.0 and phi_eq = 0.6 - 0.2 I_theta < 0
+    msg = bad("inclined_layer", "setup.beta=0.15", "gravity.slope_deg=28.0", "gas.law=linear")
+    assert "setup.beta" in msg and "phi_eq" in msg
     assert "grid.periodic_x" in bad("inclined_layer", "grid.periodic_x=false")
     assert "setup.start" in bad("inclined_layer", 'closure.name="drucker_prager"')
 

@@ -203,6 +203,14 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
             out.append((key, (f"tan(theta)/(1 - beta) = {mu:.4g} is outside (closure.mu1, closure.mu2) = "
                               f"({c.mu1:.4g}, {c.mu2:.4g}): no steady uniform flow (at rest below mu1, "
                               "accelerating above mu2)")))
+        else:
+            phi_eq = float(c.equilibrium.phi_eq(c.I0 * (mu - c.mu1) / (c.mu2 - mu)))
+            if not phi_eq > 0.0:
+                key = "setup.beta" if s.beta > 0 else "gravity.slope_deg"
+                out.append((key, (f"tan(theta)/(1 - beta) = {mu:.4g} gives I_theta = "
+                                  f"{c.I0 * (mu - c.mu1) / (c.mu2 - mu):.4g} and phi_eq(I_theta) = "
+                                  f"{phi_eq:.4g} <= 0: no steady packing (lower it, or raise "
+                                  "material.phi_max / lower material.delta_phi)")))
     elif s.start == "bagnold":
         out.append(("setup.start", (f'"bagnold" needs closure.name = "{REFERENCE_CLOSURE}" (got '
                                    f'{config.closure.name!r})')))
