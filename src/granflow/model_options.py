@@ -110,8 +110,9 @@ class AmbientParams(Params):
     eta_a : float
         Ambient viscosity [Pa s]. Default 1e-3.
     eta_b : float, optional
-        Background viscosity added to the dense cells [Pa s]; default (None) ``eta_a``, so that
-        one number sets both (the v1 behaviour). Set it apart from ``eta_a`` to damp the grains
+        Background viscosity added to the dense cells [Pa s]; default (None) ``eta_a`` with the
+        threshold surface (one number sets both: the v1 behaviour) and 0 with the indicator surface
+        (:attr:`granflow.model.Model.background_viscosity`). Set it apart from ``eta_a`` to damp the grains
         that numerical diffusion leaves in the ambient without changing the dense rheology.
     velocity_band : int
         The velocity is solved only on the faces of the cells within this many cells of a cell
@@ -126,8 +127,8 @@ class AmbientParams(Params):
     phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")
     rho_a: float = Field(2.0, gt=0, description="ambient density [kg m^-3]")
     eta_a: float = Field(1.0e-3, gt=0, description="ambient viscosity [Pa s]")
-    eta_b: float | None = Field(None, gt=0, description="background viscosity of the dense cells "
-                                "(default: eta_a) [Pa s]")
+    eta_b: float | None = Field(None, ge=0, description="background viscosity of the dense cells "
+                                "(default: eta_a with surface = \"threshold\", 0 with \"indicator\") [Pa s]")
     velocity_band: int = Field(DEFAULT_VELOCITY_BAND, ge=0, description="solve the velocity only "
                                "within this many cells of the grains, u = 0 beyond; 0 = everywhere, "
                                f"else >= {MIN_VELOCITY_BAND} [cells]")
