@@ -56,11 +56,24 @@ LEVELS = (10, 20, 40, 80, 160)
 FLUID_LEVELS = (10, 20, 40, 80)
 DRY = {"theta_deg": 25.0, "beta": 0.0}
 FLUIDISED = {"theta_deg": 22.0, "beta": 0.15}
-OPTIONS = {"delta_p": 1e-3, "ambient": {"eta_a": 1e-4}, "interface_packing": False,
-           "gravity_blend_velocity": 0.01, "isochoric_interface": 0}  # the top cells must dilate
+OPTIONS: dict = {}
+"""Model options of the main tables: none (the defaults, scheme v2: indicator surface, consistent
+momentum transport)."""
+V1 = {"surface": "threshold", "advection": "upwind"}
+V1_OPTIONS = {**V1, "delta_p": 1e-3, "ambient": {"eta_a": 1e-4}, "interface_packing": False,
+              "gravity_blend_velocity": 0.01, "isochoric_interface": 0}  # the top cells must dilate
+"""The v1 (threshold surface) scheme with the four surface options its Bagnold match needed."""
 DEFAULT_OPTIONS = {"delta_p": 1.0, "ambient": {"eta_a": 1e-3}, "interface_packing": True,
                    "gravity_blend_velocity": None, "isochoric_interface": 0}  # the v1 defaults
 OPTIONS_LEVEL = 40
+REST_CASES = ((22.0, 0.0), (25.0, 0.0), (28.0, 0.0), (22.0, 0.15), (25.0, 0.15), (28.0, 0.05))
+"""(theta [deg], beta) of the from-rest table (issue 12 acceptance 2); beta = 0.15 at 28 deg has
+no steady packing (I_theta = 3.0, phi_eq < 0: refused by the case), hence 0.05 there."""
+REST_LEVELS = (20, 40)
+REST_HEADROOM = 1.3
+"""Box height over h0 of the from-rest runs (the layer dilates from phi_max by up to 25 %)."""
+STEADY_WINDOW = 2.0
+"""Drift = peak-to-peak of u_s over the last STEADY_WINDOW seconds / u_s [s]."""
 
 
 def inertial_number(theta_deg: float, beta: float) -> float:
@@ -144,6 +157,53 @@ def run(resolution: int, quick: bool = False, c_I: float = 2.0, theta_deg: float
         "steps": sim.state.step, "wall": wall, "z": g.zc.copy(), "u": u.copy(),
         "phi": sim.state.phi[0].copy(), "p": sim.state.p[0].copy(), "failure": failure,
     }
+
+
+def from_rest(resolution: int, theta_deg: float, beta: float, t_end: float = T_END) -> dict:
+    """The ``inclined_layer`` case released from rest at phi_max with the default numerics (no
+    numerics section; ``resolution`` cells over h0, a box REST_HEADROOM h0 high), like
+    examples/inclined_layer_from_rest.toml. Keys: ``err_us`` (u_s at t_end against Bagnold's at
+    the steady thickness), ``drift`` (over the last STEADY_WINDOW s), ``dphi`` (median phi/c of
+    the layer - phi_eq), ``steps``, ``wall`` [s]."""
+    from granflow.cases import CASES
+    from granflow.cases.inclined_layer import bagnold as case_bagnold, surface_velocity
+    from granflow.config import CaseConfig
+
+    nz = int(round(REST_HEADROOM * resolution))
+    data = {"case": {"name": "inclined_layer"},
+            "setup": {"h0": H0, "start": "rest", **({"beta": beta} if beta else {})},
+            "material": {"d": D, "rho_s": RHO_S, "phi_max": PHI_MAX, "delta_phi": DELTA_PHI},
+            "closure": {"name": "mu_i", "mu1": MU1, "mu2": MU2, "I0": I0},
+            "gravity": {"slope_deg": theta_deg, "g": G},
+            "grid": {"periodic_x": True, "nx": NX, "nz": nz, "Lx": LX, "Lz": H0 * nz / resolution},
+            "time": {"stop_time": t_end, "dt_max": DT_MAX}, "output": {"figures": False}}
+    if beta:
+        data["gas"] = {"law": "linear"}
+    cfg = CaseConfig.from_dict(data)
+    sim = CASES.get("inclined_layer").setup(cfg)
+    record = []
+    t0 = time.perf_counter()
+    while sim.state.t < t_end - 1e-9:
+        sim.step()
+        record.append((sim.state.t, surface_velocity(sim)))
+    t, u = np.array(record).T
+    ref = case_bagnold(cfg)
+    late = u[t >= t[-1] - STEADY_WINDOW]
+    psi = sim.state.phi / np.maximum(sim.state.c, 1e-300)
+    layer = psi[0][sim.state.c[0] > 0.999]
+    return {"nz": resolution, "theta_deg": theta_deg, "beta": beta,
+            "err_us": float(u[-1] / ref.surface_velocity - 1.0),
+            "drift": float(np.ptp(late) / abs(u[-1])), "dphi": float(np.median(layer) - ref.phi),
+            "steps": sim.state.step, "wall": time.perf_counter() - t0}
+
+
+def rest_table(rows) -> str:
+    out = ["| theta [deg] | beta | cells over h | err u_s | drift (last 2 s) | median phi - phi_eq | steps | wall [s] |",
+           "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        out.append(f"| {r['theta_deg']:g} | {r['beta']:g} | {r['nz']} | {r['err_us']:+.3e} | "
+                   f"{r['drift']:.1e} | {r['dphi']:+.2e} | {r['steps']} | {r['wall']:.1f} |")
+    return "\n".join(out)
 
 
 def surcharge_error(dust_cells: float, nz: int, c_I: float = 2.0,
@@ -231,8 +291,15 @@ def figure(rows, fluid_rows, path: Path = FIGURE) -> Path:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="coarsest level only, short run")
-    parser.add_argument("--options", action="store_true", help="also measure the model options")
+    parser.add_argument("--options", action="store_true",
+                        help="also measure the v1 (threshold surface) options one at a time")
+    parser.add_argument("--rest", action="store_true",
+                        help="only the from-rest table (issue 12 acceptance 2, ~1 min)")
     args = parser.parse_args()
+    if args.rest:
+        print("from rest at phi_max, default numerics (case inclined_layer, no numerics section):")
+        print(rest_table([from_rest(n, th, b) for th, b in REST_CASES for n in REST_LEVELS]))
+        return
     levels = LEVELS[:1] if args.quick else LEVELS
     rows = [run(n, args.quick) for n in levels]
     print(f"dry, theta = {DRY['theta_deg']} deg, c_I = 2: I_theta = {inertial_number(25.0, 0.0):.4f}, "
@@ -255,12 +322,14 @@ def main() -> None:
           f"(dry: {float(bagnold(H0, 2.0, 22.0, 0.0)):.4f})")
     print(table(fluid))
     print(f"\nfigure: {figure(rows, fluid)}")
+    print("\nfrom rest at phi_max, default numerics (case inclined_layer, no numerics section):")
+    print(rest_table([from_rest(n, th, b) for th, b in REST_CASES for n in REST_LEVELS]))
     if args.options:
-        print(f"\nmodel options, one at a time back to the default, nz = {OPTIONS_LEVEL}:")
+        print(f"\nv1 (threshold surface) options, one at a time back to the v1 default, nz = {OPTIONS_LEVEL}:")
         print("| option | value | err u_s | drift (last 2 s) | dust [cells] | failure |\n"
               "|---|---|---:|---:|---:|---|")
         for key, value in DEFAULT_OPTIONS.items():
-            r = run(OPTIONS_LEVEL, options={**OPTIONS, key: value})
+            r = run(OPTIONS_LEVEL, options={**V1_OPTIONS, key: value})
             print(f"| {key} | {value} | {r['err_us']:+.3e} | {r['drift']:.1e} | {r['dust']:.3f} | "
                   f"{r['failure']} |")
 
