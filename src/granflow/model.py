@@ -21,12 +21,12 @@ Step n -> n+1 (:meth:`Model.advance`):
    dense cells (free or active; ``p_f = 0`` in the ambient) border it, and the momentum rows get
    ``-Grad p_f`` (NUMERICS.md §3.1, §3.3) -- with coefficients lagged at the iterate (u_k, p_k)
    (the gas block depends on t^n fields only); the closure is evaluated at
-   ``I_e = I(sqrt(|S_k|^2 + eps^2), p_e)``, ``p_e = p_k + delta_p`` (finite, > 0):
+   ``I_e = I(sqrt(|S_k|^2 + eps^2), p_e)``, ``p_e = sqrt(max(p_k, 0)^2 + delta_p^2)`` (finite, > 0):
 
    * yield viscosity ``eta = max(Z, 0) p_k / (2 sqrt(|S_k|^2 + eps^2)) + eta_visc/2 + eta_b``
      at cells (``eta_visc S`` is the closure's viscous stress), arithmetic mean to nodes
-     (regularisation ``eps``, NUMERICS.md §4; ``eta_b`` the dense background viscosity, default
-     ``eta_a``); ambient cells get ``eta_a``; cells with ``Z < 0``
+     (regularisation ``eps``, NUMERICS.md §4; ``eta_b`` the dense background viscosity,
+     :attr:`Model.background_viscosity`); ambient cells get ``eta_a``; cells with ``Z < 0``
      are counted in the report;
    * dilatancy row on dense, active cells ``Div u + C p = b``: the stiff-safe law
      ``div u = fac (2|S| A(phi, I) - G(phi) sqrt(p))`` (``Closure.A``,
@@ -144,7 +144,11 @@ class Model:
     ambient : AmbientParams or dict, optional
     picard : PicardParams or dict, optional
     delta_p : float
-        Pressure offset [Pa] of the sqrt(p) linearisation. Default 1.
+        Pressure floor [Pa] of the closure's inertial number and of the sqrt(p) linearisation:
+        ``p_e = sqrt(p^2 + delta_p^2)``, ``delta_p`` at ``p = 0`` and ``p (1 + O(delta_p^2/p^2))``
+        in the bulk. (Until 2026-12-03 ``p + delta_p``: a first-order bias of ``I`` by
+        ``sqrt(1 + delta_p/p)``, +1.2 % on u_s of a 1 cm Bagnold layer at every resolution.)
+        Default 1.
     interface_packing : bool
         Use phi_loc near the ambient (NUMERICS.md §7.1). Default True.
     phi_tolerance : float
@@ -513,7 +517,8 @@ class Model:
     def coefficients(self, phi_e, p_k, S, dt: float, dense) -> Coefficients:
         """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2).
 
-        The closure is evaluated at ``I_e = I(sqrt(|S|^2 + eps^2), p_k + delta_p)``: the
+        The closure is evaluated at ``I_e = I(sqrt(|S|^2 + eps^2), p_e)``,
+        ``p_e = sqrt(max(p_k, 0)^2 + delta_p^2)``: the
         inertial number of the regularised strain rate, finite and > 0 everywhere. Only the
         dense cells are evaluated: the ambient gets ``eta_a`` and ``b = C = 0`` (no row).
         """
@@ -521,7 +526,7 @@ class Model:
         dense = np.asarray(dense, dtype=bool)
         idx = np.flatnonzero(dense)
         phi_e, p_k, S = (np.asarray(x, dtype=float)[idx] for x in (phi_e, p_k, S))
-        p_e = np.maximum(p_k, 0.0) + self.delta_p
+        p_e = np.hypot(np.maximum(p_k, 0.0), self.delta_p)
         S_reg = np.sqrt(S * S + self.eps * self.eps)
         I_e = self.material.inertial_number(S_reg, p_e)
         with np.errstate(all="ignore"):
