@@ -29,7 +29,8 @@ separates the backward-Euler energy of isolated one-step velocity jumps ("events
 
 Run:   python validation/energy/run.py [--quick] [--case dry|fluidised|all] [--series dx|dt|all]
        [--resume] [--report]
-Time:  ~10 min on one core for everything (dry ~5 min, fluidised ~4.5 min); ``--quick``
+Time:  ~10 min on one core for upwind, muscl and consistent (dry ~5 min, fluidised ~4.5 min; "v2"
+       adds about a third, not yet timed); ``--quick``
        (20 x 8 and 40 x 16 to t = 0.1 s, dry, upwind) ~3 s. Writes results.json and
        energy_refinement.png next to this file and prints the tables.
 """
