@@ -42,14 +42,15 @@ def test_deposit_lines_front_and_profile_follow_granflow_rules(bench):
     assert bench.profile(h, dx, x=[0.0, dx, 5.0]) == pytest.approx([0.6, 0.55, 0.0], abs=1e-12)
 
 
-@pytest.mark.parametrize("variant", ["default", "consistent", "v2"])
+@pytest.mark.parametrize("variant", ["v1", "consistent", "v2"])
 def test_granflow_command_lines_are_valid_overrides(bench, tmp_path, variant):
     cmd = bench.granflow_cmd(32, 6.26, variant, tmp_path)
     sets = [cmd[i + 1] for i, a in enumerate(cmd) if a == "--set"]
     cfg = load_case(bench.CASE_FILE, sets)
     assert (cfg.grid.nx, cfg.grid.nz, cfg.time.stop_time, cfg.setup.a) == (32, 32, 4.0, 6.26)
     assert cfg.output.figures is False
-    want = {"default": ("upwind", "threshold"), "consistent": ("consistent", "threshold"),
+    # v1 and consistent pin their options; v2 is the case file's (the default) numerics
+    want = {"v1": ("upwind", "threshold"), "consistent": ("consistent", "threshold"),
             "v2": ("consistent", "indicator")}[variant]
     assert (cfg.numerics.advection, cfg.numerics.surface) == want
 

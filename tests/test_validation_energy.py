@@ -11,6 +11,12 @@ script is smoke-tested too.
 
 The grids are the validation's Δx series (0.4 x 0.16 m, square cells, the 10 x 10 cm column
 on cell faces): 20 x 8 and 40 x 16 cells, to t = 0.15 s (the front is still advancing).
+
+Schemes (run.py ``SCHEME_NUMERICS``): "upwind" is scheme v1 pinned (upwind momentum advection and
+the threshold surface); the tests on it check properties of v1 (its exact identity, its
+backward-Euler events, its advection loss at the sheared surface) and serve as the reference that
+v2 must beat. "v2" is the default numerics since 180fbc3 (consistent transport, indicator
+surface): :func:`test_v2_default_budget`.
 """
 from __future__ import annotations
 
@@ -45,13 +51,13 @@ def energy():
 
 @pytest.fixture(scope="module")
 def dt_series(energy):
-    """20 x 8, dt_max = 2 and 1 ms, upwind, to T_END (~2 s)."""
+    """20 x 8, dt_max = 2 and 1 ms, scheme v1 (upwind + threshold surface), to T_END (~2 s)."""
     return [energy.run_one("dry", *COARSE, LZ, dt, "upwind", T_END) for dt in DT_COARSE]
 
 
 @pytest.fixture(scope="module")
 def fine(energy):
-    """40 x 16, dt_max = 1 ms (Δt ∝ Δx with the 2 ms of 20 x 8), upwind, to T_END (~4 s)."""
+    """40 x 16, dt_max = 1 ms (Δt ∝ Δx with the 2 ms of 20 x 8), scheme v1, to T_END (~4 s)."""
     return energy.run_one("dry", *FINE, LZ, 1.0e-3, "upwind", T_END)
 
 
@@ -94,14 +100,16 @@ def test_mass_and_bounds(dt_series, fine):
 
 @pytest.fixture(scope="module")
 def fluidised(energy):
-    """The fluidised flagship (phi0 = 0.58, b0 = 0.9, linear gas law) at 20 x 8, 2 ms (~1 s)."""
+    """The fluidised flagship (phi0 = 0.58, b0 = 0.9, linear gas law) at 20 x 8, 2 ms, scheme v1
+    (~1 s)."""
     return energy.run_one("fluidised", *COARSE, LZ, 2.0e-3, "upwind", T_END)
 
 
 def test_energy_identity_with_gas(fluidised):
     """The identity with the gas energy, Darcy dissipation and the four gas terms
     (measured identity 1e-14: the gas energy density e(p_f) ~ p_f^2/(2 p_atm) is a difference of
-    terms ~p_f, so it carries a larger round-off than the dry budget)."""
+    terms ~p_f, so it carries a larger round-off than the dry budget). Scheme v1 here; the v2
+    counterpart is in :func:`test_v2_default_budget`."""
     r = fluidised
     print(f"\nfluidised 20x8: residual {r['residual_rel']:+.4f}, identity {r['identity_rel']:.1e}, "
           f"gas part {r['gas_rel']:+.2e}, mass err {r['mass_err']:.1e}")
@@ -178,32 +186,46 @@ def test_dt_series_on_the_example_grid(energy):
     assert energy.slope([r["dt_mean"] for r in rows], rest) >= 0.4  # measured 0.70
 
 
+RESIDUAL_GOAL = 0.05
+"""Issue 12: |energy residual| <= 5 % of the released energy under the default scheme."""
+
+
 @pytest.fixture(scope="module")
-def consistent(energy):
-    """The consistent momentum transport (scheme v2): dry 20 x 8 (2 ms) and 40 x 16 (1 ms), and
-    the fluidised flagship at 20 x 8, to T_END (~8 s together)."""
-    return {"dry": [energy.run_one("dry", *COARSE, LZ, DT_COARSE[0], "consistent", T_END),
-                    energy.run_one("dry", *FINE, LZ, 1.0e-3, "consistent", T_END)],
-            "fluidised": energy.run_one("fluidised", *COARSE, LZ, 2.0e-3, "consistent", T_END)}
+def v2(energy):
+    """The default numerics (scheme v2: consistent momentum transport, indicator surface): dry
+    and fluidised at 20 x 8 (2 ms) and 40 x 16 (1 ms), to T_END (~7 s together)."""
+    return {case: [energy.run_one(case, *COARSE, LZ, DT_COARSE[0], "v2", T_END),
+                   energy.run_one(case, *FINE, LZ, 1.0e-3, "v2", T_END)]
+            for case in ("dry", "fluidised")}
 
 
-def test_consistent_transport_budget(consistent, dt_series, fluidised):
-    """Mass and momentum moved by the same fluxes: the inertia-transport term (mass used in the
-    solve vs mass after the transport) is at the Picard tolerance (measured 2e-3 at 20 x 8,
-    7e-5 at 40 x 16, 1e-5 fluidised), the identity stays exact, and the numerical residual is
-    well below the v1 upwind scheme's on the same grid (measured -8.0 % vs -21 % dry, -5.7 % vs
-    -27 % fluidised) and shrinks under refinement (measured -8.0 % -> -5.5 %)."""
-    runs = [*consistent["dry"], consistent["fluidised"]]
-    for r in runs:
-        print(f"\n{r['case']} {r['nx']}x{r['nz']}: residual {r['residual_rel']:+.4f}, parts "
-              f"{ {k: round(v, 5) for k, v in r['parts_rel'].items() if v} }, audit {r['audit_mismatch_rel']:.1e}")
-        assert abs(r["identity_rel"]) <= IDENTITY_TOL
-        assert abs(r["mass_err"]) <= MASS_TOL
-        assert r["phi_min"] >= 0.0 and r["phi_max"] <= r["phi_max_allowed"]
-        assert abs(r["parts_rel"]["inertia_transport"]) <= 5e-3
-        assert r["audit_mismatch_rel"] <= 1e-3
-        assert -1.0 < r["residual_rel"] < 0.0
-    coarse, fine = consistent["dry"]
-    assert abs(coarse["residual_rel"]) < 0.5 * abs(dt_series[0]["residual_rel"])
-    assert abs(consistent["fluidised"]["residual_rel"]) < 0.5 * abs(fluidised["residual_rel"])
-    assert abs(fine["residual_rel"]) < abs(coarse["residual_rel"])
+def test_v2_default_budget(v2, dt_series, fluidised):
+    """Scheme v2 (the default): mass and momentum moved by the same fluxes, so the
+    inertia-transport term (mass used in the solve vs mass after the transport) is at the Picard
+    tolerance (measured <= 8e-5); the identity (with the gas terms: the gas energy at the
+    material packing phi/c) stays exact (measured <= 6e-16); the audit's recomputation of the
+    advection energy (fluxes of the material transport with u^{n+1}) matches the step reports to
+    the Picard tolerance (measured <= 9e-5); the residual is well below scheme v1's on the same
+    grid (measured 20 x 8: -7.1 % vs -21.3 % dry, -6.1 % vs -27.0 % fluidised), shrinks under
+    refinement (measured dry -7.1 % -> -3.5 %, fluidised -6.1 % -> -3.9 %) and is within issue
+    12's 5 % at 40 x 16. (The gravity/transport term is the largest change from v1: +0.9, +0.8 %
+    dry, +2.0, +0.5 % fluidised, against <= 0.05 % in v1.)"""
+    for case, runs in v2.items():
+        for r in runs:
+            print(f"\n{case} {r['nx']}x{r['nz']}: residual {r['residual_rel']:+.4f}, identity "
+                  f"{r['identity_rel']:.1e}, parts { {k: round(v, 5) for k, v in r['parts_rel'].items() if v} }, "
+                  f"audit {r['audit_mismatch_rel']:.1e}")
+            assert r["numerics"]["advection"] == "consistent" and r["numerics"]["surface"] == "indicator"
+            assert r["released_J_m"] > 0
+            assert abs(r["identity_rel"]) <= IDENTITY_TOL
+            assert abs(r["identity_mech_rel"]) <= IDENTITY_TOL
+            assert abs(r["mass_err"]) <= MASS_TOL
+            assert r["phi_min"] >= 0.0 and r["phi_max"] <= r["phi_max_allowed"]
+            assert abs(r["parts_rel"]["inertia_transport"]) <= 5e-3
+            assert r["audit_mismatch_rel"] <= 1e-3
+            assert -1.0 < r["residual_rel"] < 0.0
+        coarse, fine = runs
+        assert abs(fine["residual_rel"]) < abs(coarse["residual_rel"])
+        assert abs(fine["residual_rel"]) <= RESIDUAL_GOAL
+    assert abs(v2["dry"][0]["residual_rel"]) < 0.5 * abs(dt_series[0]["residual_rel"])
+    assert abs(v2["fluidised"][0]["residual_rel"]) < 0.5 * abs(fluidised["residual_rel"])

@@ -58,12 +58,20 @@ def test_smoke_fluidised_column_spreads_faster_than_dry_and_expansion_is_what_ma
     moved much more solid out of its initial footprint than the dry one, while the same pore
     pressure in a non-expanded bed (phi0 = 0.6) gains nothing (README: the expansion, not b0,
     sets the fluidised run-out). The fronts differ by one 2.5 cm cell only (0.200 against 0.175 m,
-    measured), too coarse to assert; the displaced fraction is continuous."""
-    dry = _displaced_fraction("column_collapse_dry.toml")                        # measured 0.244
-    fluidised = _displaced_fraction("column_collapse_fluidised.toml")            # measured 0.401
-    packed = _displaced_fraction("column_collapse_fluidised.toml", "setup.phi0=0.6")  # measured 0.204
-    assert fluidised >= 1.3 * dry      # measured ratio 1.65
-    assert packed <= 1.15 * dry        # measured ratio 0.84
+    measured), too coarse to assert; the displaced fraction is continuous.
+
+    Default numerics (scheme v2), measured: dry 0.267, fluidised 0.502 (ratio 1.88), packed 0.313
+    (1.17); the packed gain is 0.20 of the expanded one. The earlier bound packed <= 1.15 dry
+    (from a measured 0.84 with v1) was a coarse-grid value of v1: v1 now gives 1.01 at 16 x 6 and
+    1.16 at 32 x 12 (v2 1.21), and the README's run-outs to rest give the packed bed 1.13-1.40 x
+    the dry one (v1, 1 and 0.5 cm). So the packed bed is held to the slow test's 1.35 and, for
+    "expansion is what matters", to less than half the expanded bed's gain."""
+    dry = _displaced_fraction("column_collapse_dry.toml")                        # measured 0.267
+    fluidised = _displaced_fraction("column_collapse_fluidised.toml")            # measured 0.502
+    packed = _displaced_fraction("column_collapse_fluidised.toml", "setup.phi0=0.6")  # measured 0.313
+    assert fluidised >= 1.3 * dry      # measured ratio 1.88
+    assert packed <= 1.35 * dry        # measured ratio 1.17
+    assert packed - dry <= 0.5 * (fluidised - dry)  # measured 0.20
 
 
 def _load_run():

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granflow.grid import Grid
+from granflow.physics.material import packing
 from granflow.physics.pore_pressure import GasEnergy, gas_energy
 
 HALF = 0.5
@@ -72,10 +73,20 @@ def potential_energy(model, state) -> float:
 
 
 def gas_energy_of(model, state) -> float:
-    """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry."""
+    """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry.
+
+    Indicator surface: ``phi`` is the packing inside the material ``phi / c``
+    (:func:`granflow.physics.material.packing`; ``c`` from :meth:`Model.material_of` for a state
+    without it), the packing at which the gas rows hold the pore gas (:mod:`granflow.step`), so
+    that ``E_1`` is the energy whose change the gas terms of
+    :class:`~granflow.physics.coupling.GasPowers` account for."""
     if model.gas is None:
         return 0.0
-    return gas_energy(model.grid, state.phi, state.p_f, model.material, GasEnergy.LOG)
+    phi = state.phi
+    if getattr(model, "indicator", False):
+        c = model.material_of(state.phi) if state.c is None else state.c
+        phi = packing(c, state.phi)
+    return gas_energy(model.grid, phi, state.p_f, model.material, GasEnergy.LOG)
 
 
 def basal_pressure(grid: Grid, field, x: float) -> float:

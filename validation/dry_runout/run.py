@@ -239,15 +239,17 @@ def record(a: float, level: int, summary: dict, arrays: dict, cpu_s: float, tota
 
 
 def run_single(a: float, level: int, max_steps: int | None = None, workdir: Path = WORKDIR,
-               datadir: Path = DATA, results_path: Path = RESULTS, n: float | None = None) -> dict:
+               datadir: Path = DATA, results_path: Path = RESULTS, n: float | None = None,
+               extra: tuple[str, ...] = ()) -> dict:
     """One collapse through :class:`CaseRun` (level ``level`` of :func:`levels`, or ``n`` cells over
-    H0 if given: tests); saves ``datadir``/<key>.npz and the record in ``results_path``."""
+    H0 if given: tests); saves ``datadir``/<key>.npz and the record in ``results_path``.
+    ``extra``: further ``--set`` overrides (tests: e.g. scheme v1's numerics)."""
     from granflow.cases.runner import CaseRun
     from granflow.config import load_case
 
     name = key(a, level)
     n = levels(a)[level] if n is None else n
-    cfg = load_case(BASE_FILE, overrides(a, n, max_steps))
+    cfg = load_case(BASE_FILE, [*overrides(a, n, max_steps), *extra])
     cpu0, wall0 = time.process_time(), time.perf_counter()
     result = CaseRun(cfg, workdir / name, overwrite=True).run()
     cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0

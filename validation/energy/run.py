@@ -11,8 +11,9 @@ numerical terms (``sim.budget.numerical``): backward Euler, momentum advection, 
 the phi transport, gravity/transport mismatch (with the clipping), and the four gas terms.
 
 Runs (examples/column_collapse_dry.toml and examples/column_collapse_fluidised.toml, DP closure,
-10 x 10 cm column, all to the FIXED time t = 0.3 s, before the deposit rests), for both momentum
-advection schemes ("upwind", "muscl", "consistent" -- scheme v2):
+10 x 10 cm column, all to the FIXED time t = 0.3 s, before the deposit rests), for the
+schemes ``SCHEME_NUMERICS``: "upwind", "muscl", "consistent" momentum advection with the threshold
+surface, and "v2" (consistent advection with the indicator surface, the default numerics):
 
 * Δx series with Δt ∝ Δx: 20 x 8, 40 x 16, 80 x 32 cells on 0.4 x 0.16 m (square cells of 2, 1,
   0.5 cm, the column edges on cell faces at every level), ``dt_max`` = 2e-3, 1e-3, 5e-4 s;
@@ -28,7 +29,8 @@ separates the backward-Euler energy of isolated one-step velocity jumps ("events
 
 Run:   python validation/energy/run.py [--quick] [--case dry|fluidised|all] [--series dx|dt|all]
        [--resume] [--report]
-Time:  ~10 min on one core for everything (dry ~5 min, fluidised ~4.5 min); ``--quick``
+Time:  ~10 min on one core for upwind, muscl and consistent (dry ~5 min, fluidised ~4.5 min; "v2"
+       adds about a third, not yet timed); ``--quick``
        (20 x 8 and 40 x 16 to t = 0.1 s, dry, upwind) ~3 s. Writes results.json and
        energy_refinement.png next to this file and prints the tables.
 """
@@ -60,8 +62,13 @@ RESULTS = HERE / "results.json"
 FIGURE = HERE / "energy_refinement.png"
 CASE_FILES = {"dry": ROOT / "examples" / "column_collapse_dry.toml",
               "fluidised": ROOT / "examples" / "column_collapse_fluidised.toml"}
-SCHEMES = ("upwind", "muscl", "consistent")
-DT_SCHEMES = ("upwind", "consistent")
+SCHEMES = ("upwind", "muscl", "consistent", "v2")
+SCHEME_NUMERICS = {"upwind": ("upwind", "threshold"), "muscl": ("muscl", "threshold"),
+                   "consistent": ("consistent", "threshold"), "v2": ("consistent", "indicator")}
+"""(numerics.advection, numerics.surface) per scheme: the first three pin the threshold surface
+(the v1 runs of the README, made before the indicator surface existed); "v2" is the default
+numerics since 180fbc3 (consistent transport and the indicator surface)."""
+DT_SCHEMES = ("upwind", "consistent", "v2")
 """Schemes of the Δt series (the Δt behaviour does not depend on the spatial scheme: measured
 with both in an earlier version, README)."""
 T_END = 0.3
@@ -130,7 +137,8 @@ class RegionAudit:
         sim.add_callback(self._record, IterationInterval(1), name="region_audit")
 
     def _wrapped(self, state, dt):
-        self._pending = (state.vel.copy(), state.phi.copy())
+        c = None if state.c is None else state.c.copy()
+        self._pending = (state.vel.copy(), state.phi.copy(), c)
         return self._advance(state, dt)
 
     def face_regions(self, phi) -> dict:
@@ -147,7 +155,7 @@ class RegionAudit:
     def _record(self, sim) -> None:
         if self._pending is None or not sim.reports:
             return
-        vel0, phi0 = self._pending
+        vel0, phi0, c0 = self._pending
         self._pending = None
         m, rep = self.model, sim.reports[-1]
         dV, mat = m.grid.cell_volume, m.material
@@ -157,7 +165,8 @@ class RegionAudit:
         if m.advection is mom.Advection.CONSISTENT:
             # the fluxes of the transport with u^{n+1} (the solve used those of its last iterate:
             # the mismatch is at the Picard tolerance, not round-off)
-            moved = advect(m.grid, phi0, u1, rep.dt, mat.phi_max)
+            moved = (advect(m.grid, phi0, u1, rep.dt, mat.phi_max) if c0 is None
+                     else m.transport(phi0, u1, rep.dt, c0))  # indicator: with c (no dilation)
             A = mt.momentum_flux_divergence(m.grid, moved.flux_x, moved.flux_z, vel0)
             div_dual = mt.dual_mass_divergence(m.ops, moved.flux_x, moved.flux_z)
             adv = -rep.dt * dV * mat.rho_s * (u1 * A - 0.5 * u1 * u1 * div_dual)
@@ -234,9 +243,10 @@ def example_config(case: str, overrides: list[str]):
 def make_simulation(case: str, nx: int, nz: int, Lz: float, dt_max: float, scheme: str,
                     t_end: float):
     """The example's Simulation with the grid, time step, scheme and stop time replaced."""
+    advection, surface = SCHEME_NUMERICS[scheme]
     overrides = [f"grid.nx={nx}", f"grid.nz={nz}", f"grid.Lz={Lz}", f"time.dt_max={dt_max}",
-                 f"time.stop_time={t_end}", f'numerics.advection="{scheme}"',
-                 'numerics.linear_solver="auto"']
+                 f"time.stop_time={t_end}", f'numerics.advection="{advection}"',
+                 f'numerics.surface="{surface}"', 'numerics.linear_solver="auto"']
     cfg = example_config(case, overrides)
     return CASES.get("column_collapse").setup(cfg), cfg
 
