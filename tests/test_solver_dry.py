@@ -221,6 +221,15 @@ def collapse():
 
 
 def test_collapse_runs_conserves_mass_and_respects_bounds(collapse):
+    """Mass to 1e-10 with the clipped and added masses counted, bounds after the clip.
+
+    Under the v1 MUSCL transport no phi < 0 ever occurred (``added == 0`` exactly). The v2
+    indicator transport (default since 180fbc3) carries the grains with the MUSCL face value of
+    the packing phi/c times the volume flux; a cell emptied of material in one step can then
+    send out slightly more grains than it holds. Measured on this run (3 Dec 2026): one such cell
+    (c = 9.85e-4, phi = 5.71e-4 -> c = 0, phi = -4.53e-6, a face packing 0.585 against its own
+    0.580), the other 15 events round-off (-4e-22); added mass 4.53e-10 m^2 = 7.6e-8 of the
+    total. Bound: added <= 1e-6 of the total, min phi before the clip >= -1e-5."""
     model, phi0, sim, _, _ = collapse
     g = model.grid
     clipped = sum(r.clipped_mass for r in sim.reports)
@@ -233,7 +242,8 @@ def test_collapse_runs_conserves_mass_and_respects_bounds(collapse):
     assert sim.n_rejected == 0
     assert abs(mass_err) <= 1e-10
     assert clipped / m0 <= 1e-2
-    assert added == 0.0
+    assert added / m0 <= 1e-6
+    assert min(r.min_phi_before_clip for r in sim.reports) >= -1e-5
     assert sim.state.phi.min() >= 0.0 and sim.state.phi.max() <= PHI_MAX
     assert max_before <= PHI_MAX * (1 + model.phi_tolerance)
 
@@ -299,10 +309,13 @@ def test_every_paper_closure_takes_steps_of_the_collapse(name):
             assert np.max(np.abs(sim.state.vel)) > 0.0
 
 
-def test_diagnostics_closed_forms():
-    """Mass, potential and kinetic energy, deposit thickness and front of hand-built fields."""
+@pytest.mark.parametrize("advection", ["consistent", "upwind"])
+def test_diagnostics_closed_forms(advection):
+    """Mass, potential and kinetic energy, deposit thickness and front of hand-built fields.
+    The kinetic energy uses the model's face inertia: ``phi_f rho_s + rho_a`` with the
+    consistent transport (scheme v2, default), ``max(phi_f rho_s, rho_a)`` with the v1 upwind."""
     g = Grid(nx=10, nz=5, Lx=1.0, Lz=0.5)                   # dx = dz = 0.1
-    model = Model(g, closure("drucker_prager"), gravity=(0.0, -G))
+    model = Model(g, closure("drucker_prager"), gravity=(0.0, -G), advection=advection)
     X, Z = g.cell_coords()
     H, L = 0.3, 0.4
     phi = np.where((Z < H) & (X < L), PHI_MAX, 0.0)
@@ -319,7 +332,10 @@ def test_diagnostics_closed_forms():
     u = np.zeros(g.xface_shape)
     u[1:4, :3] = 2.0                                          # faces inside the block
     state.vel = g.pack_velocity(u, np.zeros(g.zface_shape))
-    assert np.isclose(dg.kinetic_energy(model, state), 0.5 * PHI_MAX * RHO_S * 4.0 * 9 * 0.01, rtol=1e-12)
+    rho_a = model.ambient.rho_a
+    assert 0.0 < rho_a < PHI_MAX * RHO_S
+    rho_f = PHI_MAX * RHO_S + (rho_a if advection == "consistent" else 0.0)
+    assert np.isclose(dg.kinetic_energy(model, state), 0.5 * rho_f * 4.0 * 9 * 0.01, rtol=1e-12)
 
 
 # --------------------------------------------------------------------------------------------
