@@ -24,7 +24,8 @@ which the budget also accumulates:
 
 Fluidised model (MODEL.md §5, paper Theorem th1): the budget adds the gas energy
 ``E_1 = sum (1 - phi) e(p_f) dV``, ``e(p) = (p_atm + p) ln(1 + p/p_atm) - p`` (LOG, paper eq. H(p)
-+ p_atm), the Darcy dissipation (pairing of :mod:`granflow.physics.coupling`: weighted for the
++ p_atm; with the indicator surface ``phi`` is the material's packing ``phi/c``, that of the gas
+rows, :func:`gas_energy_of`), the Darcy dissipation (pairing of :mod:`granflow.physics.coupling`: weighted for the
 LINEAR law, unweighted for NONLINEAR) and the injected power, so that
 
     err = [E_k + E_p + E_1](t) - [E_k + E_p + E_1](0) + int (D_y + D_d + D_darcy - P_inj) dt.
@@ -44,6 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granflow.grid import Grid
+from granflow.physics.material import packing
 from granflow.physics.pore_pressure import GasEnergy, gas_energy
 
 HALF = 0.5
@@ -72,10 +74,20 @@ def potential_energy(model, state) -> float:
 
 
 def gas_energy_of(model, state) -> float:
-    """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry."""
+    """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry.
+
+    With the indicator surface the gas rows hold the gas at the material's packing
+    ``psi = phi / c`` (capacity ``1 - psi``, :func:`granflow.step.explicit_stage`), so ``E_1`` is
+    ``sum (1 - psi) e(p_f) dV`` -- the energy of the gas identity of
+    :class:`granflow.physics.coupling.GasPowers` (``p_f = 0`` outside the cells with a row;
+    ``c`` defaults to :meth:`Model.material_of` for a state without it)."""
     if model.gas is None:
         return 0.0
-    return gas_energy(model.grid, state.phi, state.p_f, model.material, GasEnergy.LOG)
+    phi = state.phi
+    if getattr(model, "indicator", False):
+        c = state.c if state.c is not None else model.material_of(state.phi)
+        phi = packing(c, state.phi)
+    return gas_energy(model.grid, phi, state.p_f, model.material, GasEnergy.LOG)
 
 
 def basal_pressure(grid: Grid, field, x: float) -> float:
