@@ -174,23 +174,40 @@ def _long_layer(theta_deg: float, eps: float = 5e-3):
 
 
 def test_tilted_layer_above_the_friction_angle_accelerates():
-    """theta = 35 deg > delta: E_k grows every step, and the surface velocity at mid-length
-    grows at a rate between 0.3 and 1.0 times the infinite-slope Coulomb plug acceleration
-    g (sin theta - sin(delta) cos theta) = 2.0 m/s^2 (the box walls, the no-slip base and the
-    dilatancy slow it down; measured ~1.3 m/s^2)."""
+    """theta = 35 deg > delta: E_k grows every step. Over 0.01 -> 0.02 s, at mid-length, the
+    phi-weighted mean velocity of the column grows at 0.3 to 1.0 times the infinite-slope Coulomb
+    plug acceleration a_ref = g (sin theta - sin(delta) cos theta) = 2.0 m/s^2 (depth-averaged
+    momentum balance with a basal friction >= sin(delta) p; the box walls, the no-slip base and
+    the dilatancy slow it down), and the velocity of the top cell at 0.3 to 1.25 a_ref.
+
+    The top cell is not bounded by a_ref itself: a discretisation error at the free surface may
+    have either sign. Measured (3 Dec 2026) mean / top: scheme v2 (defaults) 0.79 / 1.15 a_ref,
+    v1 (threshold, upwind) 0.53 / 0.67 (v1's pressure near the surface is 1.5 - 2.7x
+    lithostatic, v2's within 5 %). On the infinite (periodic) slope v2's top-cell rate converges
+    to a_ref from above with the grid, 1.19 / 1.15 / 1.08 a_ref at dz = 5 / 2.5 / 1.25 mm (mean
+    0.81 / 0.86 / 0.91). (The former bound, top cell <= a_ref with the rate over 0.011 -> 0.02 s
+    divided by 0.01 s, measured 1.04 a_ref under v2; the time of the sample is now used.)"""
     model, state = _long_layer(35.0)
     sim = Simulation(model, state, stop_time=0.02)
-    e_k, u_top = [], []
+    e_k, u_top, u_mean, t = [], [], [], []
     g = model.grid
+    i = g.nx // 2
     while not sim.done():
         sim.step()
         e_k.append(sim.budget.e_k)
         u, _ = g.unpack_velocity(sim.state.vel)
-        u_top.append(u[g.nx // 2, 3])
+        phi_f = 0.5 * (sim.state.phi[i - 1, :] + sim.state.phi[i, :])
+        u_top.append(u[i, 3])
+        u_mean.append(float(np.sum(phi_f * u[i, :]) / np.sum(phi_f)))
+        t.append(sim.state.t)
     assert np.all(np.diff(e_k) > 0)
     a_ref = G * (np.sin(np.radians(35.0)) - np.sin(np.radians(DELTA_DEG)) * np.cos(np.radians(35.0)))
-    a = (u_top[-1] - u_top[len(u_top) // 2]) / (sim.state.t - 0.01)
-    assert 0.3 * a_ref <= a <= a_ref, (a, a_ref)
+    k = int(np.argmin(np.abs(np.array(t) - 0.01)))
+    a_top = (u_top[-1] - u_top[k]) / (t[-1] - t[k])
+    a_mean = (u_mean[-1] - u_mean[k]) / (t[-1] - t[k])
+    print(f"\ntilted layer: a_mean/a_ref = {a_mean / a_ref:.3f}, a_top/a_ref = {a_top / a_ref:.3f}")
+    assert 0.3 * a_ref <= a_mean <= a_ref, (a_mean, a_ref)
+    assert 0.3 * a_ref <= a_top <= 1.25 * a_ref, (a_top, a_ref)
 
 
 def test_tilted_layer_below_the_friction_angle_creeps():
