@@ -159,15 +159,15 @@ class Model:
         (:meth:`gravity_split`).
     advection : Advection or str
         Momentum transport: the v1 non-conservative ``(u . grad) u`` schemes ``"upwind"``
-        (default) and ``"muscl"``, or ``"consistent"`` (scheme v2: conservative, with the mass
+        and ``"muscl"``, or ``"consistent"`` (default, scheme v2: conservative, with the mass
         fluxes of the phi transport, :mod:`granflow.physics.momentum_transport`).
     base_friction : BaseFriction or str, optional
         Pressure of the friction on a no-slip base: ``"wall"`` (the bottom cells' viscosity at the
         pressure extrapolated to the wall) or ``"centre"`` (at their centre pressure). Default
         (None): ``"wall"`` with the indicator surface, ``"centre"`` with the threshold one.
     surface : Surface or str
-        ``"threshold"`` (default, v1: ``phi < ambient.phi_c`` is ambient) or ``"indicator"``
-        (scheme v2: a transported material fraction ``c``, :mod:`granflow.physics.material`; the
+        ``"threshold"`` (v1: ``phi < ambient.phi_c`` is ambient) or ``"indicator"``
+        (default, scheme v2: a transported material fraction ``c``, :mod:`granflow.physics.material`; the
         state carries ``c``, every material cell is dense and the closure is evaluated at the
         packing ``phi / c``, never looser than ``ambient.phi_c`` (the material volume is bounded
         by ``phi / phi_c``); the weight of a z-face is the reconstructed material of its dual
