@@ -78,10 +78,15 @@ def test_base_nodes_carry_the_whole_weight(n_material):
 
 
 def test_option_defaults_and_refusal():
+    """Scheme v2 defaults (surface = "indicator"): friction at the wall pressure; the v1
+    threshold surface keeps the centre pressure unless told otherwise."""
     g = Grid(nx=4, nz=4, Lx=0.04, Lz=0.04)
     dp = make_closure("drucker_prager")
-    assert Model(g, dp).base_friction is BaseFriction.CENTRE
+    assert Model(g, dp).surface.value == "indicator"
+    assert Model(g, dp).base_friction is BaseFriction.WALL
     assert Model(g, dp, surface="indicator").base_friction is BaseFriction.WALL
+    assert Model(g, dp, surface="threshold").base_friction is BaseFriction.CENTRE
+    assert Model(g, dp, surface="threshold", base_friction="wall").base_friction is BaseFriction.WALL
     assert Model(g, dp, surface="indicator", base_friction="centre").base_friction is BaseFriction.CENTRE
     with pytest.raises(GranflowInputError, match="base_friction"):
         Model(g, dp, base_friction="floor")

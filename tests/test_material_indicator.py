@@ -1,6 +1,6 @@
 """The material indicator transport (granflow.physics.material, numerics.surface = "indicator"):
 grain mass to round-off, bounds, a full region stays exactly full, a sliding layer keeps its
-fraction, the surface stays sharp, and the Model/State plumbing (checkpoint of c, refusal without c)."""
+fraction, the surface stays sharp, and the Model/State plumbing (checkpoint of c, c from phi for a state without it)."""
 import numpy as np
 import pytest
 
@@ -92,7 +92,10 @@ def test_material_fraction_of_a_cut_column():
     assert np.allclose(c, [[1.0, 1.0, 0.5, 0.0]])
 
 
-def test_model_state_carries_c_and_refuses_a_state_without_it():
+def test_model_state_carries_c_and_a_state_without_it_gets_material_of_phi():
+    """Model.initial_state carries c; a State built without c (State.at_rest) gets
+    c = model.material_of(phi) at its first advance (scheme v2 default; it used to be refused)
+    and then runs bit for bit like the state of Model.initial_state with the same p."""
     from granflow.model import Model
     from granflow.rheology import make_closure
     from granflow.state import State
@@ -106,11 +109,22 @@ def test_model_state_carries_c_and_refuses_a_state_without_it():
     assert np.allclose(st.c[:3, 3], 0.5) and np.all(st.c[:3, :3] == 1.0) and np.all(st.c[3:] == 0.0)
     copy = st.copy()
     assert copy.c is not st.c and np.array_equal(copy.c, st.c)
-    report = model.advance(st, 1e-4)
-    assert report.status.value != "failed"
+    bare = State.at_rest(g, phi, p=st.p.copy())
+    assert bare.c is None
+    for _ in range(3):
+        report = model.advance(st, 1e-4)
+        assert report.status.value != "failed"
+        report = model.advance(bare, 1e-4)
+        assert report.status.value != "failed"
+        assert bare.c is not None
     assert st.phi.sum() == pytest.approx(phi.sum(), rel=1e-12)
-    with pytest.raises(GranflowInputError, match="state.c"):
-        model.advance(State.at_rest(g, phi), 1e-4)
+    assert np.max(np.abs(st.vel)) > 0.0                       # the column is collapsing
+    for name in ("phi", "c", "p", "vel"):
+        assert np.array_equal(getattr(bare, name), getattr(st, name)), name
+    # the threshold surface (v1) carries no c and leaves it None
+    v1 = Model(g, make_closure("drucker_prager"), surface="threshold", advection="upwind")
+    st1 = State.at_rest(g, phi)
+    assert v1.advance(st1, 1e-4).status.value != "failed" and st1.c is None
     with pytest.raises(GranflowInputError, match="surface"):
         Model(g, make_closure("drucker_prager"), surface="vof")
 

@@ -401,10 +401,11 @@ def test_static_periodic_layer_is_lithostatic_and_at_rest():
 def test_interface_packing_wraps_in_x():
     """phi_loc (max over the 5 x 5 neighbourhood of cells within 2 cells of the ambient) sees the
     ambient and the dense cells across the periodic face: reference by explicit wrapping.
-    phi_loc is the threshold surface's interface packing (v1; the indicator surface evaluates the
-    closure at phi / c and has no phi_loc), so the threshold surface is pinned here."""
+    phi_loc is the v1 threshold surface's (the indicator surface of scheme v2 evaluates the
+    closure at phi/c and ignores interface_packing): surface="threshold" pinned."""
     g = Grid(nx=8, nz=6, Lx=0.08, Lz=0.06, periodic_x=True)
-    model = Model(g, closure(), surface="threshold")
+    model = Model(g, closure(), surface="threshold", advection="upwind")
+    assert model.interface_packing
     phi = np.full(g.cell_shape, 0.5)
     phi[-2:, :] = 0.0           # ambient columns 6, 7 (neighbours of column 0 through the wrap)
     phi[0, 2] = 0.58

@@ -1,6 +1,6 @@
 """The AMG saddle-point solver inside the time step (Model(linear_solver="amg")) reproduces the
 reference sparse-LU path on the tiny dry and fluidised collapses (same scheme, only the linear
-solve differs: FGMRES to rtol 1e-8 against SuperLU)."""
+solve differs: FGMRES to rtol 1e-8 against SuperLU); scheme v2, the defaults."""
 from __future__ import annotations
 
 import numpy as np
@@ -32,12 +32,19 @@ def run(linear_solver: str, gas: str | None):
 
 @pytest.mark.parametrize("gas", [None, "linear"])
 def test_amg_path_matches_direct(gas):
+    """30 steps (0.03 s) with the defaults (scheme v2). Measured 3 Dec 2026, max differences AMG -
+    direct: phi 4.3e-8 (dry and linear), u 4.6e-6 (dry) / 2.7e-6 (linear) of max|u|, p 2.6e-7 /
+    1.8e-7 of max p, p_f 1.4e-7 of max p_f (v1: phi 4e-9, u 2e-7). They are the FGMRES tolerance
+    carried through the steps, not a different path: with rtol 1e-10 instead of the default 1e-8
+    (dry) they drop 100-fold (u 3.8e-8, phi 2.0e-10), growing smoothly step by step with the same
+    sweeps and active sets; v2's transport (donor-acceptor fractions, limiters) amplifies a
+    solver error more than v1's. Bounds: phi 2e-7, u 2e-5 max|u|, p and p_f 2e-6."""
     ref, amg = run("direct", gas), run("amg", gas)
     assert amg.state.step == ref.state.step and amg.n_rejected == ref.n_rejected == 0
-    np.testing.assert_allclose(amg.state.phi, ref.state.phi, rtol=0, atol=5e-8)  # measured 4e-9
+    np.testing.assert_allclose(amg.state.phi, ref.state.phi, rtol=0, atol=2e-7)  # measured 4.3e-8
     scale = np.abs(ref.state.vel).max()
     assert scale > 1e-3  # the column is moving
-    np.testing.assert_allclose(amg.state.vel, ref.state.vel, rtol=0, atol=2e-6 * scale)  # measured 2e-7
+    np.testing.assert_allclose(amg.state.vel, ref.state.vel, rtol=0, atol=2e-5 * scale)  # measured 4.6e-6
     np.testing.assert_allclose(amg.state.p, ref.state.p, rtol=0, atol=2e-6 * np.abs(ref.state.p).max())
     if gas:
         np.testing.assert_allclose(amg.state.p_f, ref.state.p_f, rtol=0, atol=2e-6 * np.abs(ref.state.p_f).max())

@@ -137,9 +137,19 @@ def test_static_layer_stays_at_rest_with_lithostatic_pressure(name):
 def test_heap_below_the_friction_angle_creeps_at_the_regularisation_level(name, slope_deg):
     """Wedge (partial cells at its surface) of slope < friction angle (DP: delta = 26.7 deg,
     critical slope >= atan(sin delta) = 24.2 deg; mu(I): mu1 = tan 21 deg) resting on a
-    2-cell layer, 20 x 8 cells. Granular faces creep at speed <= eps H and the creep is
-    proportional to eps (5x smaller eps -> ratio in [4, 6]), i.e. it is the regularisation."""
-    g = Grid(nx=20, nz=8, Lx=0.2, Lz=0.08)
+    2-cell layer, 20 x 9 cells. Granular faces creep at speed <= 1.25 eps H and the creep is
+    proportional to eps (5x smaller eps -> ratio in [4, 6]), i.e. it is the regularisation.
+
+    The box is 9 cm high so that the DP wedge (top H = 8.5 cm) does not touch the closed lid;
+    in the former 8 cm box its two first columns were full up to the lid, and under scheme v2
+    (the defaults) those lid cells change their active set over the first step's Picard sweeps
+    (11 changes, 10 sweeps to converge; the default 4 fail at dt = 1e-3 and 5e-4 with increments
+    0.89 and 0.66) -- material pressed against a closed lid at p ~ 0 is not what this test is
+    about (open point, reported). Measured (3 Dec 2026, eps = 1e-3 / 5e-3): DP max speed
+    1.09 / 1.08 eps H under v2, at the z-face below the summit's thin surface cell (c = 0.32,
+    friction at its mid-material pressure), 0.90 eps H under v1 at the same face; mu(I) 0.89
+    eps H (v2); ratios 4.99 - 5.00; no rejected step."""
+    g = Grid(nx=20, nz=9, Lx=0.2, Lz=0.09)
     X, Z = g.cell_coords()
     top, tail = 0.085 if slope_deg > 16 else 0.07, 0.02
     surface = np.maximum(top - X * np.tan(np.radians(slope_deg)), tail)
@@ -150,7 +160,7 @@ def test_heap_below_the_friction_angle_creeps_at_the_regularisation_level(name, 
         sim = Simulation(model, model.initial_state(phi), stop_time=0.05).run()
         assert sim.n_rejected == 0
         speeds.append(np.max(np.abs(sim.state.vel[material_faces(model, sim.state.phi)])))
-        assert speeds[-1] <= eps * top, (eps, speeds[-1])
+        assert speeds[-1] <= 1.25 * eps * top, (eps, speeds[-1])
     assert 4.0 <= speeds[0] / speeds[1] <= 6.0, speeds
 
 
@@ -164,23 +174,40 @@ def _long_layer(theta_deg: float, eps: float = 5e-3):
 
 
 def test_tilted_layer_above_the_friction_angle_accelerates():
-    """theta = 35 deg > delta: E_k grows every step, and the surface velocity at mid-length
-    grows at a rate between 0.3 and 1.0 times the infinite-slope Coulomb plug acceleration
-    g (sin theta - sin(delta) cos theta) = 2.0 m/s^2 (the box walls, the no-slip base and the
-    dilatancy slow it down; measured ~1.3 m/s^2)."""
+    """theta = 35 deg > delta: E_k grows every step. Over 0.01 -> 0.02 s, at mid-length, the
+    phi-weighted mean velocity of the column grows at 0.3 to 1.0 times the infinite-slope Coulomb
+    plug acceleration a_ref = g (sin theta - sin(delta) cos theta) = 2.0 m/s^2 (depth-averaged
+    momentum balance with a basal friction >= sin(delta) p; the box walls, the no-slip base and
+    the dilatancy slow it down), and the velocity of the top cell at 0.3 to 1.25 a_ref.
+
+    The top cell is not bounded by a_ref itself: a discretisation error at the free surface may
+    have either sign. Measured (3 Dec 2026) mean / top: scheme v2 (defaults) 0.79 / 1.15 a_ref,
+    v1 (threshold, upwind) 0.53 / 0.67 (v1's pressure near the surface is 1.5 - 2.7x
+    lithostatic, v2's within 5 %). On the infinite (periodic) slope v2's top-cell rate converges
+    to a_ref from above with the grid, 1.19 / 1.15 / 1.08 a_ref at dz = 5 / 2.5 / 1.25 mm (mean
+    0.81 / 0.86 / 0.91). (The former bound, top cell <= a_ref with the rate over 0.011 -> 0.02 s
+    divided by 0.01 s, measured 1.04 a_ref under v2; the time of the sample is now used.)"""
     model, state = _long_layer(35.0)
     sim = Simulation(model, state, stop_time=0.02)
-    e_k, u_top = [], []
+    e_k, u_top, u_mean, t = [], [], [], []
     g = model.grid
+    i = g.nx // 2
     while not sim.done():
         sim.step()
         e_k.append(sim.budget.e_k)
         u, _ = g.unpack_velocity(sim.state.vel)
-        u_top.append(u[g.nx // 2, 3])
+        phi_f = 0.5 * (sim.state.phi[i - 1, :] + sim.state.phi[i, :])
+        u_top.append(u[i, 3])
+        u_mean.append(float(np.sum(phi_f * u[i, :]) / np.sum(phi_f)))
+        t.append(sim.state.t)
     assert np.all(np.diff(e_k) > 0)
     a_ref = G * (np.sin(np.radians(35.0)) - np.sin(np.radians(DELTA_DEG)) * np.cos(np.radians(35.0)))
-    a = (u_top[-1] - u_top[len(u_top) // 2]) / (sim.state.t - 0.01)
-    assert 0.3 * a_ref <= a <= a_ref, (a, a_ref)
+    k = int(np.argmin(np.abs(np.array(t) - 0.01)))
+    a_top = (u_top[-1] - u_top[k]) / (t[-1] - t[k])
+    a_mean = (u_mean[-1] - u_mean[k]) / (t[-1] - t[k])
+    print(f"\ntilted layer: a_mean/a_ref = {a_mean / a_ref:.3f}, a_top/a_ref = {a_top / a_ref:.3f}")
+    assert 0.3 * a_ref <= a_mean <= a_ref, (a_mean, a_ref)
+    assert 0.3 * a_ref <= a_top <= 1.25 * a_ref, (a_top, a_ref)
 
 
 def test_tilted_layer_below_the_friction_angle_creeps():
@@ -221,6 +248,15 @@ def collapse():
 
 
 def test_collapse_runs_conserves_mass_and_respects_bounds(collapse):
+    """Mass to 1e-10 with the clipped and added masses counted, bounds after the clip.
+
+    Under the v1 MUSCL transport no phi < 0 ever occurred (``added == 0`` exactly). The v2
+    indicator transport (default since 180fbc3) carries the grains with the MUSCL face value of
+    the packing phi/c times the volume flux; a cell emptied of material in one step can then
+    send out slightly more grains than it holds. Measured on this run (3 Dec 2026): one such cell
+    (c = 9.85e-4, phi = 5.71e-4 -> c = 0, phi = -4.53e-6, a face packing 0.585 against its own
+    0.580), the other 15 events round-off (-4e-22); added mass 4.53e-10 m^2 = 7.6e-8 of the
+    total. Bound: added <= 1e-6 of the total, min phi before the clip >= -1e-5."""
     model, phi0, sim, _, _ = collapse
     g = model.grid
     clipped = sum(r.clipped_mass for r in sim.reports)
@@ -233,7 +269,8 @@ def test_collapse_runs_conserves_mass_and_respects_bounds(collapse):
     assert sim.n_rejected == 0
     assert abs(mass_err) <= 1e-10
     assert clipped / m0 <= 1e-2
-    assert added == 0.0
+    assert added / m0 <= 1e-6
+    assert min(r.min_phi_before_clip for r in sim.reports) >= -1e-5
     assert sim.state.phi.min() >= 0.0 and sim.state.phi.max() <= PHI_MAX
     assert max_before <= PHI_MAX * (1 + model.phi_tolerance)
 
@@ -299,10 +336,13 @@ def test_every_paper_closure_takes_steps_of_the_collapse(name):
             assert np.max(np.abs(sim.state.vel)) > 0.0
 
 
-def test_diagnostics_closed_forms():
-    """Mass, potential and kinetic energy, deposit thickness and front of hand-built fields."""
+@pytest.mark.parametrize("advection", ["consistent", "upwind"])
+def test_diagnostics_closed_forms(advection):
+    """Mass, potential and kinetic energy, deposit thickness and front of hand-built fields.
+    The kinetic energy uses the model's face inertia: ``phi_f rho_s + rho_a`` with the
+    consistent transport (scheme v2, default), ``max(phi_f rho_s, rho_a)`` with the v1 upwind."""
     g = Grid(nx=10, nz=5, Lx=1.0, Lz=0.5)                   # dx = dz = 0.1
-    model = Model(g, closure("drucker_prager"), gravity=(0.0, -G))
+    model = Model(g, closure("drucker_prager"), gravity=(0.0, -G), advection=advection)
     X, Z = g.cell_coords()
     H, L = 0.3, 0.4
     phi = np.where((Z < H) & (X < L), PHI_MAX, 0.0)
@@ -319,7 +359,10 @@ def test_diagnostics_closed_forms():
     u = np.zeros(g.xface_shape)
     u[1:4, :3] = 2.0                                          # faces inside the block
     state.vel = g.pack_velocity(u, np.zeros(g.zface_shape))
-    assert np.isclose(dg.kinetic_energy(model, state), 0.5 * PHI_MAX * RHO_S * 4.0 * 9 * 0.01, rtol=1e-12)
+    rho_a = model.ambient.rho_a
+    assert 0.0 < rho_a < PHI_MAX * RHO_S
+    rho_f = PHI_MAX * RHO_S + (rho_a if advection == "consistent" else 0.0)
+    assert np.isclose(dg.kinetic_energy(model, state), 0.5 * rho_f * 4.0 * 9 * 0.01, rtol=1e-12)
 
 
 # --------------------------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from granflow import diagnostics as dg
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.model import Model, StepStatus
+from granflow.physics.material import packing
 from granflow.physics.momentum import GasBorder
 from granflow.physics.transport import advect
 from granflow.rheology import make_closure
@@ -241,7 +242,11 @@ def collapses():
 @pytest.mark.parametrize("gas", ["linear", "nonlinear"])
 def test_fluidised_collapse_runs_conserves_mass_and_bounds(collapses, gas):
     """No rejected step; mass (plus clipped, minus added) conserved to 1e-10; phi in [0, phi_max],
-    the pre-clip overshoot within the model's tolerance; p_f finite and above vacuum."""
+    the pre-clip overshoot within the model's tolerance; p_f finite and above vacuum.
+    Added mass (phi < 0 clipped): exactly 0 with the v1 MUSCL transport; the v2 indicator
+    transport (default since 180fbc3) leaves round-off negatives in cells it empties (measured
+    3 Dec 2026: 4.9e-23 m^2 linear, 3.7e-25 m^2 nonlinear, ~1e-20 of the mass), bound 1e-12 of
+    the mass."""
     model, phi0, sim, _ = collapses[gas]
     g = model.grid
     clipped = sum(r.clipped_mass for r in sim.reports)
@@ -255,7 +260,7 @@ def test_fluidised_collapse_runs_conserves_mass_and_bounds(collapses, gas):
           f"{1e3 * cost:.1f} ms/step, {np.mean([r.picard_iterations for r in sim.reports]):.2f} sweeps/step")
     assert sim.state.t == pytest.approx(STOP) and sim.n_rejected == 0
     assert abs(mass_err) <= 1e-10
-    assert added == 0.0 and clipped / m0 <= 1e-2
+    assert 0.0 <= added <= 1e-12 * m0 and clipped / m0 <= 1e-2
     assert sim.state.phi.min() >= 0.0 and sim.state.phi.max() <= PHI_MAX
     assert max_before <= PHI_MAX * (1 + model.phi_tolerance)
     assert np.all(np.isfinite(sim.state.p_f)) and sim.state.p_f.min() > -MAT.p_atm
@@ -263,8 +268,8 @@ def test_fluidised_collapse_runs_conserves_mass_and_bounds(collapses, gas):
 
 def test_fluidised_collapse_runs_out_further_than_the_dry_one(collapses):
     """Fronts (h > 5 mm) every 0.05 s. Fluidised (both laws) ahead of the dry front from 0.1 s on,
-    by >= 5 cells at 0.3 s (measured: dry 0.20 m, fluidised 0.29 m at 0.3 s, i.e. Delta L 0.10 vs
-    0.19 m); the two gas laws agree within one cell (p_f/p_atm ~ 1 %). Basal p_f (max over the
+    by >= 5 cells at 0.3 s (measured with scheme v2, 3 Dec 2026: dry 0.25 m, fluidised 0.37 m at
+    0.3 s, i.e. Delta L 0.15 vs 0.27 m; v1: dry 0.20 m, fluidised 0.29 m); the two gas laws agree within one cell (p_f/p_atm ~ 1 %). Basal p_f (max over the
     base) decays below half its initial value by 0.3 s."""
     fronts = {gas: h[:, 1] for gas, (_, _, _, h) in collapses.items()}
     t = collapses[None][3][:, 0]
@@ -287,7 +292,9 @@ def test_fluidised_collapse_energy_budget(collapses, gas):
     finite, |err| < released potential energy; the numerical terms sum to it (exact identity,
     rtol 1e-8); the pressure work cancels between the mechanical and the gas budgets to
     round-off (|int W_mom - int W_gas| <= 1e-10 int |W|); the gas part of err is < 2 % of the
-    released potential energy (measured 0.15 %)."""
+    released potential energy (measured 0.09 % with scheme v2, 0.15 % with v1). Under v2 the identity
+    needs E_1 at the material's packing phi/c, that of the gas rows (diagnostics.gas_energy_of);
+    with phi it was off by 4.7e-8 J/m (1.5e-7 of err)."""
     _, _, sim, _ = collapses[gas]
     b = sim.budget
     parts = ", ".join(f"{k} {v / b.released:+.4f}" for k, v in b.numerical.items())
@@ -326,24 +333,39 @@ def darcy(phi, p, weighted: bool) -> float:
     return float(total)
 
 
+V1 = dict(surface="threshold", advection="upwind")
+
+
 @pytest.mark.parametrize("gas", ["linear", "nonlinear"])
-def test_pressure_work_cancels_and_gas_energy_identity_holds_each_step(gas):
+@pytest.mark.parametrize("scheme", ["v1", "v2"])
+def test_pressure_work_cancels_and_gas_energy_identity_holds_each_step(gas, scheme):
     """Eight 1 ms steps of the fluidised collapse. Per step, with E_1, D and W_f computed here:
     W_f = dV sum p_f (u_e - u_w)/dx + (w_n - w_s)/dz equals the momentum-side work
     -dV u . Grad p_f (rtol 1e-12), and (E_1^{n+1} - E_1^n)/dt + D + W_f equals the sum of the
     reported numerical gas terms (backward Euler <= 0, cells turned ambient <= 0, transport,
     diffusion) to rtol 1e-8 of the largest term -- the discrete identity of
     granflow.physics.coupling. The pairing is LOG energy with weighted Darcy for the linear law,
-    unweighted for the non-linear one; D (rtol 1e-10) uses kappa at the packing phi* predicted by
-    the transport with u^n (granflow.physics.transport.advect, tested in test_transport.py)."""
+    unweighted for the non-linear one.
+
+    v1 (surface="threshold", advection="upwind" pinned): D is also recomputed here (rtol 1e-10)
+    with kappa at the packing phi* predicted by the v1 phi transport with u^n
+    (granflow.physics.transport.advect, tested in test_transport.py) -- that prediction is the
+    threshold surface's. v2 (the defaults, indicator surface): the gas lives at the material's
+    packing psi = phi/c with p_f = 0 at the reconstructed surface (face-mobility factors), so
+    E_1 is computed here at psi and D is taken as reported (> 0); the identity is the same."""
     g = Grid(nx=40, nz=15, Lx=0.4, Lz=0.15)
-    model = Model(g, closure(), gas=gas)
+    model = Model(g, closure(), gas=gas, **(V1 if scheme == "v1" else {}))
+    assert model.indicator is (scheme == "v2")
     X, Z = g.cell_coords()
     phi = np.where((X < 0.1) & (Z < 0.1), PHI_EXPANDED, 0.0)
     state = model.initial_state(phi, p_f=B_FLUID * model.lithostatic_pressure(phi))
     dV, dt = g.dx * g.dz, 1e-3
+
+    def gas_phi(st):
+        return st.phi if st.c is None else packing(st.c, st.phi)
+
     for _ in range(8):
-        e0 = log_energy(state.phi, state.p_f) * dV
+        e0 = log_energy(gas_phi(state), state.p_f) * dV
         phi_star = np.clip(advect(g, state.phi, state.vel, dt).phi, 0.0, PHI_MAX)  # predicted packing
         report = model.advance(state, dt)
         assert report.status is not StepStatus.FAILED, report.message
@@ -357,9 +379,11 @@ def test_pressure_work_cancels_and_gas_energy_identity_holds_each_step(gas):
         assert work == pytest.approx(work_mom, rel=1e-12, abs=1e-14)
         assert gas_terms.work == pytest.approx(work, rel=1e-10, abs=1e-12)
         assert gas_terms.work_momentum == pytest.approx(work_mom, rel=1e-10, abs=1e-12)
-        d = darcy(phi_star, state.p_f, weighted=gas == "linear") * dV
-        assert d > 0.0 and gas_terms.darcy == pytest.approx(d, rel=1e-10)
-        e1 = log_energy(state.phi, state.p_f) * dV
+        assert gas_terms.darcy > 0.0
+        if scheme == "v1":
+            d = darcy(phi_star, state.p_f, weighted=gas == "linear") * dV
+            assert gas_terms.darcy == pytest.approx(d, rel=1e-10)
+        e1 = log_energy(gas_phi(state), state.p_f) * dV
         lhs = (e1 - e0) / dt + gas_terms.darcy + work - gas_terms.injection
         scale = max(abs(gas_terms.darcy), abs(work), abs(e1 - e0) / dt)
         assert lhs == pytest.approx(gas_terms.numerical, abs=1e-8 * scale)

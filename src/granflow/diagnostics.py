@@ -24,7 +24,8 @@ which the budget also accumulates:
 
 Fluidised model (MODEL.md §5, paper Theorem th1): the budget adds the gas energy
 ``E_1 = sum (1 - phi) e(p_f) dV``, ``e(p) = (p_atm + p) ln(1 + p/p_atm) - p`` (LOG, paper eq. H(p)
-+ p_atm), the Darcy dissipation (pairing of :mod:`granflow.physics.coupling`: weighted for the
++ p_atm; with the indicator surface ``phi`` is the material's packing ``phi/c``, that of the gas
+rows, :func:`gas_energy_of`), the Darcy dissipation (pairing of :mod:`granflow.physics.coupling`: weighted for the
 LINEAR law, unweighted for NONLINEAR) and the injected power, so that
 
     err = [E_k + E_p + E_1](t) - [E_k + E_p + E_1](0) + int (D_y + D_d + D_darcy - P_inj) dt.
@@ -75,16 +76,16 @@ def potential_energy(model, state) -> float:
 def gas_energy_of(model, state) -> float:
     """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (LOG density, module docstring); 0 if dry.
 
-    Indicator surface: ``phi`` is the packing inside the material ``phi / c``
-    (:func:`granflow.physics.material.packing`; ``c`` from :meth:`Model.material_of` for a state
-    without it), the packing at which the gas rows hold the pore gas (:mod:`granflow.step`), so
-    that ``E_1`` is the energy whose change the gas terms of
-    :class:`~granflow.physics.coupling.GasPowers` account for."""
+    With the indicator surface the gas rows hold the gas at the material's packing
+    ``psi = phi / c`` (capacity ``1 - psi``, :func:`granflow.step.explicit_stage`), so ``E_1`` is
+    ``sum (1 - psi) e(p_f) dV`` -- the energy of the gas identity of
+    :class:`granflow.physics.coupling.GasPowers` (``p_f = 0`` outside the cells with a row;
+    ``c`` defaults to :meth:`Model.material_of` for a state without it)."""
     if model.gas is None:
         return 0.0
     phi = state.phi
     if getattr(model, "indicator", False):
-        c = model.material_of(state.phi) if state.c is None else state.c
+        c = state.c if state.c is not None else model.material_of(state.phi)
         phi = packing(c, state.phi)
     return gas_energy(model.grid, phi, state.p_f, model.material, GasEnergy.LOG)
 
