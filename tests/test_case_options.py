@@ -20,7 +20,7 @@ def test_numerics_options_reach_the_model(example):
     model = CASES.get(cfg.case.name).setup(cfg).model
     assert model.isochoric_interface == 0
     assert model.gravity_blend_velocity == 0.5
-    assert model.ambient.background_viscosity == 0.1
+    assert model.ambient.background_viscosity == 0.1 == model.background_viscosity
     assert model.linear_solver_name == "amg"
 
 

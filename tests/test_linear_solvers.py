@@ -102,7 +102,7 @@ def capture(model: Model, state: State, dt: float) -> list[dict]:
     assert not report.failed, report.message
     assert len(systems) == len(coefs) == len(actives) == len(masses) >= 1
     for s, c, a, mass in zip(systems, coefs, actives, masses):
-        s.update(hints=SaddleHints(mass=mass, viscosity=c.eta_c[a]), eta_c=c.eta_c,
+        s.update(hints=SaddleHints(mass=mass, viscosity=gstep.hint_viscosity(model, c.eta_c[a])), eta_c=c.eta_c,
                  n=model.grid.n_unknowns, grid=model.grid)
     return systems
 

@@ -283,8 +283,8 @@ def test_collapse_front_advances_and_slows_down(collapse):
     assert front[0] == pytest.approx(0.1)
     assert front[-1] >= 0.1 + 5 * model.grid.dx
     assert np.all(np.diff(front) >= 0)
-    steps = np.diff(front)
-    assert steps[-1] <= 0.5 * steps.max()       # the front slows down
+    steps = np.rint(np.diff(front) / model.grid.dx)  # the front moves by whole cells
+    assert steps[-1] <= 0.5 * steps.max()       # the front slows down (v2: 1, 2, 3, 4, 4, 2 cells)
     assert e_k[-1] <= 0.35 * e_k.max()           # kinetic energy decays
 
 

@@ -31,10 +31,11 @@ SPEED_TOLERANCE = 0.02
 """Granular-face velocities agree to this fraction of the peak speed (measured 3.3e-4 at 0.15 s)."""
 
 
-def dp_model(band: int, nx: int = 40, nz: int = 15, gas: str | None = None, solver: str = "direct") -> Model:
+def dp_model(band: int, nx: int = 40, nz: int = 15, gas: str | None = None, solver: str = "direct",
+             **options) -> Model:
     closure = make_closure("drucker_prager", material={"d": 70e-6}, delta_deg=26.74)
     return Model(Grid(nx=nx, nz=nz, Lx=0.4, Lz=0.15), closure, gas=gas, linear_solver=solver,
-                 ambient={"velocity_band": band})
+                 ambient={"velocity_band": band}, **options)
 
 
 def column(model: Model, phi0: float = PHI_MAX) -> np.ndarray:
@@ -100,8 +101,10 @@ def test_restricted_saddle_is_the_scipy_submatrix(with_gas):
 
 def test_banded_step_is_the_whole_system_with_the_far_ambient_at_rest():
     """One step with the band against the whole system solved by SciPy with u = 0 imposed
-    (identity rows) on the faces outside the band, same Picard sweeps (one)."""
-    banded, whole = dp_model(3), dp_model(0)
+    (identity rows) on the faces outside the band, same Picard sweeps (one). The threshold
+    surface (v1) is pinned: its band edge is a u = 0 wall; the indicator surface's edge is
+    stress-free (next test)."""
+    banded, whole = dp_model(3, surface="threshold"), dp_model(0, surface="threshold")
     for m in (banded, whole):
         m.picard = m.picard.model_copy(update={"max_sweeps": 1})
     phi = column(banded)
@@ -137,6 +140,28 @@ def test_banded_step_is_the_whole_system_with_the_far_ambient_at_rest():
     # round-off of two LU factorisations of an ill-conditioned saddle system (yield viscosity
     # contrast ~1e8): measured 1.2e-9 of the peak; a plumbing error would be O(1)
     np.testing.assert_allclose(s_band.vel, sol[:n], rtol=0, atol=1e-7 * scale)
+
+
+def test_indicator_band_edge_is_stress_free():
+    """With the indicator surface the viscosity of the cells and nodes whose strain rate reaches a
+    face beyond the band is 0 (granflow.step.band_edge): the viscous operator V = ec^T eta_c ec +
+    en^T w eta_n en then couples no kept face to an excluded one (the excluded faces' u = 0 exerts
+    no stress on the band), while the band keeps its interior coupling."""
+    from granflow.step import band_edge
+
+    model = dp_model(3)
+    ops, phi = model.ops, column(model)
+    keep = model.velocity_region(phi)
+    edge_c, edge_n = band_edge(ops, keep)
+    assert edge_c.any() and edge_n.any()
+    full = ops.viscous_operator(np.ones(model.grid.n_cells), np.ones(model.grid.n_nodes)).tocsr()
+    assert abs(full[keep][:, ~keep]).sum() > 0      # the u = 0 wall the v1 band has
+    V = ops.viscous_operator(np.where(edge_c, 0.0, 1.0), np.where(edge_n, 0.0, 1.0)).tocsr()
+    assert abs(V[keep][:, ~keep]).sum() == 0.0
+    # the material's own faces are untouched: no edge cell or node holds grains
+    assert not np.any(edge_c & (phi.ravel() > 0))
+    inner = V[keep][:, keep]
+    assert inner.nnz > 0.5 * full[keep][:, keep].nnz
 
 
 def test_banded_collapse_follows_the_whole_one():

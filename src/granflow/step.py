@@ -207,6 +207,14 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
                     band_edge=edge)
 
 
+def hint_viscosity(model, eta) -> np.ndarray:
+    """The pressure cells' viscosity given to the preconditioners [Pa s], floored at
+    ``ambient.eta_a``: with no background viscosity (the indicator surface's default) a material
+    cell at ``p = 0`` has ``eta = 0``, which the Schur-complement approximations (``1/eta``)
+    cannot take. The matrix itself is not changed."""
+    return np.maximum(eta, model.ambient.eta_a)
+
+
 def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None):
     """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
     (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
@@ -318,7 +326,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         rhs = np.concatenate([layout.kept(rhs_u), -np.where(act, coef.b, 0.0)[layout.pressure]] + ex.rhs_gas)
         tim["assembly"] += time.perf_counter() - t0
         sol, its = _solve(model, K, rhs, lambda: layout.guess(u_k, np.where(act, p_k, 0.0), K.shape[0]),
-                          SaddleHints(mass=mass, viscosity=coef.eta_c[act]), tim, sweeps)
+                          SaddleHints(mass=mass, viscosity=hint_viscosity(model, coef.eta_c[act])), tim, sweeps)
         krylov += its
         u_new = layout.velocity(sol)
         p_new = layout.pressure_of(sol)  # 0 in the free cells among the unknowns
