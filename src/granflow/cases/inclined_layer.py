@@ -26,12 +26,11 @@ the stress ratio of a steady uniform layer is ``tan(theta)`` at every depth, and
 with the steady thickness ``h = h0 phi0 / phi_eq(I_theta)`` (mass). Other closures run, without a
 reference (with Drucker-Prager a steady uniform flow exists only at tan(theta) = sin(delta)).
 
-Numerics. The Bagnold match needs four non-default surface options (tests/test_inclined_plane.py,
-validation/inclined_plane/README.md, each measured): ``numerics.delta_p = 1e-3`` Pa,
-``numerics.ambient.eta_a = 1e-4`` Pa s, ``numerics.interface_packing = false`` and
-``numerics.gravity_blend_velocity = 0.01`` m/s (and ``numerics.isochoric_interface = 0``: the top
-cells must dilate). The Model is :func:`granflow.cases.common.make_model` on the periodic grid
-(:func:`make_inclined_model`).
+Numerics. The defaults (scheme v2: indicator surface, consistent momentum transport) match
+Bagnold within 1 % at 20 and 40 cells over h, from rest or from the exact profile, dry and
+fluidised, 22-28 deg (validation/inclined_plane/README.md); the v1 threshold surface needed four
+non-default surface options (``run.V1_OPTIONS`` there). The Model is
+:func:`granflow.cases.common.make_model` on the periodic grid (:func:`make_inclined_model`).
 
 Diagnostics: the surface velocity ``u_s`` (the u of the top row of x-faces, mean over x: the
 stress-free ambient moves with the surface) against Bagnold's, the profile error, phi against
