@@ -217,3 +217,29 @@ def test_material_never_looser_than_psi_min():
     assert np.allclose(new, [[0.9, 0.2, 0.25, 0.0]])
     assert moved == pytest.approx(0.7 + 0.05 + 1e-3)
     assert np.all(packing(new, phi)[new > 0] >= 0.3 - 1e-15)
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_windowed_material_stage_is_the_whole_grid_one(periodic, monkeypatch):
+    """advect_material on material_window (default) against the whole grid
+    (WINDOW_FRACTION = 0: never cut): same c, phi and fluxes bit for bit, with a partial
+    surface, a thin cell's dilation and a random velocity everywhere."""
+    import granflow.physics.material as M
+
+    rng = np.random.default_rng(3)
+    g = Grid(nx=40, nz=30, Lx=0.4, Lz=0.3, periodic_x=periodic)
+    c = np.zeros(g.cell_shape)
+    c[12:22, 0:8] = 1.0
+    c[12:22, 8] = 0.3
+    c[22, 0:5] = 0.05
+    phi = 0.56 * c
+    vel = g.pack_velocity(0.05 * rng.normal(size=g.xface_shape), 0.05 * rng.normal(size=g.zface_shape))
+    dilation = np.where((c > 0) & (c < 0.5), 0.3, 0.0)
+    assert M.material_window(g, c, phi) is not None
+    cut = M.advect_material(g, c, phi, vel, 0.02, 0.6, dilation, psi_min=0.3)
+    monkeypatch.setattr(M, "WINDOW_FRACTION", 0.0)
+    assert M.material_window(g, c, phi) is None
+    whole = M.advect_material(g, c, phi, vel, 0.02, 0.6, dilation, psi_min=0.3)
+    for name in ("c", "phi", "flux_x", "flux_z"):
+        assert np.array_equal(getattr(cut, name), getattr(whole, name)), name
+    assert np.abs(whole.flux_x).max() > 0

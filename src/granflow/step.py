@@ -27,7 +27,7 @@ from granflow.grid import VelocityBC
 from granflow.model_options import BaseFriction
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
-from granflow.physics.material import C_ROW, packing
+from granflow.physics.material import C_ROW, material_window, packing
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.solvers import SaddleHints
 
@@ -223,7 +223,9 @@ def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None):
     ``F_k`` is the flux of the step's own transport, so mass and momentum move together.
     Returns ``(m_k, (A, div_dual F_k), rhs)``; ``c`` the material fraction (indicator surface)."""
     moved = model.transport(phi, u_k, dt, c)
-    A = mt.momentum_flux_divergence(model.grid, moved.flux_x, moved.flux_z, vel_n)
+    # the indicator's one-stage fluxes vanish beyond the window (v1's two-stage MUSCL: not cut)
+    window = None if c is None else material_window(model.grid, c, phi)
+    A = mt.momentum_flux_divergence(model.grid, moved.flux_x, moved.flux_z, vel_n, window=window)
     div_dual = mt.dual_mass_divergence(model.ops, moved.flux_x, moved.flux_z)
     return model.inertia_density(moved.phi), (A, div_dual), rhs_0 - model.material.rho_s * A
 

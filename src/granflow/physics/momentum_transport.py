@@ -62,7 +62,7 @@ def _upwind(flux, lo, hi, s_lo, s_hi, second_order: bool):
 
 
 def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
-                             second_order: bool = True) -> np.ndarray:
+                             second_order: bool = True, window=None) -> np.ndarray:
     """``A = div_dual(F (x) u~)`` at the velocity unknowns [m s^-2] (module docstring, eq. 1).
 
     Parameters
@@ -75,14 +75,38 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
         Velocity transported [m s^-1].
     second_order : bool
         MUSCL-minmod face values (default) or first-order upwind ones.
+    window : tuple of slice, optional
+        Cell ranges (x, z) outside which the fluxes vanish with a margin of at least 3 cells
+        (:func:`granflow.physics.material.material_window` of the transported material): ``A``
+        is computed there only (0 elsewhere; the same values, bit for bit: every stencil of a
+        face with a flux stays inside).
 
     Returns
     -------
     ndarray, (n_unknowns,)
         ``rho_s A`` is the momentum flux divergence [N m^-3].
     """
-    per = grid.periodic_x
     u, w = grid.unpack_velocity(vel)
+    if window is None:
+        a_u, b = _divergence(u, w, fx, fz, grid.dx, grid.dz, grid.periodic_x, second_order)
+        return np.concatenate([a_u.ravel(), b.ravel()])
+    xs, zs = window
+    per = grid.periodic_x
+    xf = slice(0, grid.nx + 1) if per else slice(xs.start, xs.stop + 1)
+    zf = slice(zs.start, zs.stop + 1)
+    a_sub, b_sub = _divergence(u[xf, zs], w[xs, zf], fx[xf, zs], fz[xs, zf], grid.dx, grid.dz, per,
+                               second_order)
+    a_u = np.zeros((grid.nx if per else grid.nx - 1, grid.nz))
+    b = np.zeros((grid.nx, grid.nz - 1))
+    a_u[slice(0, grid.nx) if per else slice(xs.start, xs.stop - 1), zs] = a_sub
+    b[xs, slice(zs.start, zs.stop - 1)] = b_sub
+    return np.concatenate([a_u.ravel(), b.ravel()])
+
+
+def _divergence(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: bool):
+    """The x- and z-momentum parts of :func:`momentum_flux_divergence` on whole face arrays
+    ``u (n+1, m)``, ``w (n, m+1)`` (walls at the array edges unless ``per`` in x); returns the
+    interior-face arrays ``(a_u, b)``."""
     if per:
         u, fx = u[:-1], fx[:-1]
     # --- x-momentum (faces of u_columns) ---------------------------------------------------------
@@ -92,11 +116,11 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
     if per:
         val = _upwind(fcx, u, np.roll(u, -1, axis=0), su, np.roll(su, -1, axis=0), second_order)
         gx = fcx * val
-        ax = (gx - np.roll(gx, 1, axis=0)) / grid.dx
+        ax = (gx - np.roll(gx, 1, axis=0)) / dx
     else:
         val = _upwind(fcx, u[:-1], u[1:], su[:-1], su[1:], second_order)
         gx = fcx * val
-        ax = np.diff(gx, axis=0) / grid.dx                      # faces 1 .. nx-1
+        ax = np.diff(gx, axis=0) / dx                           # faces 1 .. nx-1
     # along z: dual faces at the interior nodes (between rows j and j+1), walls carry no flux
     left = np.roll(fz, 1, axis=0) if per else fz[:-1]            # cell k-1 of x-face k
     right = fz if per else fz[1:]
@@ -104,24 +128,24 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
     uc = u if per else u[1:-1]
     suz = _slopes(uc, 1, False)
     gz = fnz * _upwind(fnz, uc[:, :-1], uc[:, 1:], suz[:, :-1], suz[:, 1:], second_order)
-    az = np.diff(np.pad(gz, ((0, 0), (1, 1))), axis=1) / grid.dz
+    az = np.diff(np.pad(gz, ((0, 0), (1, 1))), axis=1) / dz
     a_u = ax + az
     # --- z-momentum (interior z-faces) -----------------------------------------------------------
     fcz = HALF * (fz[:, :-1] + fz[:, 1:])                       # dual faces at cell centres
     swz = _slopes(w, 1, False)
     gzw = fcz * _upwind(fcz, w[:, :-1], w[:, 1:], swz[:, :-1], swz[:, 1:], second_order)
-    bz = np.diff(gzw, axis=1) / grid.dz                         # faces 1 .. nz-1
+    bz = np.diff(gzw, axis=1) / dz                              # faces 1 .. nz-1
     wi = w[:, 1:-1]
     swx = _slopes(wi, 0, per)
     fex = HALF * (fx[:, :-1] + fx[:, 1:])                       # x-face k at w-row j (n, nz-1)
     if per:  # x-face k between cells k-1 (mod nx) and k
         gxw = fex * _upwind(fex, np.roll(wi, 1, axis=0), wi, np.roll(swx, 1, axis=0), swx, second_order)
-        bx = (np.roll(gxw, -1, axis=0) - gxw) / grid.dx
+        bx = (np.roll(gxw, -1, axis=0) - gxw) / dx
     else:
         inner = fex[1:-1]
         gxw = inner * _upwind(inner, wi[:-1], wi[1:], swx[:-1], swx[1:], second_order)
-        bx = np.diff(np.pad(gxw, ((1, 1), (0, 0))), axis=0) / grid.dx
-    return np.concatenate([a_u.ravel(), (bx + bz).ravel()])
+        bx = np.diff(np.pad(gxw, ((1, 1), (0, 0))), axis=0) / dx
+    return a_u, bx + bz
 
 
 def dual_mass_divergence(ops, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
