@@ -73,6 +73,7 @@ The dry model keeps ``state.p_f`` untouched (zero). The fluidised model stores `
 from __future__ import annotations
 
 import time
+from functools import cached_property
 
 import numpy as np
 from scipy.ndimage import maximum_filter
@@ -327,6 +328,21 @@ class Model:
         if self.ambient.eta_b is not None:
             return self.ambient.eta_b
         return 0.0 if self.indicator else self.ambient.eta_a
+
+    @cached_property
+    def strain_stencils(self) -> tuple:
+        """``(|ec|, |en|)`` (:mod:`granflow.operators`): which velocity unknowns each cell's and
+        node's strain rate reads (the band edge, :func:`granflow.step.band_edge`)."""
+        return abs(self.ops.ec).tocsr(), abs(self.ops.en).tocsr()
+
+    @cached_property
+    def base_node_rows(self) -> tuple:
+        """``(mask of the bottom-row nodes, cell_to_node restricted to them)``
+        (:func:`granflow.step.base_node_viscosity`)."""
+        nodes = np.zeros(self.grid.node_shape, dtype=bool)
+        nodes[:, 0] = True
+        nodes = nodes.ravel()
+        return nodes, self.ops.cell_to_node.tocsr()[nodes]
 
     @property
     def indicator(self) -> bool:

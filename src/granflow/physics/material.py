@@ -404,27 +404,12 @@ def material_window(grid: Grid, c, phi) -> tuple[slice, slice] | None:
     return xs, zs
 
 
-def _windowed_stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None):
-    """:func:`_stage` on the :func:`material_window` of the material, embedded back into
-    whole-grid arrays (zeros outside), or on the whole grid."""
-    win = material_window(grid, c, phi)
-    if win is None:
-        return _stage(grid, c, phi, u, w, div_u, dt, phi_max, dilation)
-    xs, zs = win
-    sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
-                  periodic_x=grid.periodic_x)
-    xf = slice(xs.start, xs.stop + (0 if grid.periodic_x else 1))
-    zf = slice(zs.start, zs.stop + 1)
-    if grid.periodic_x:
-        xf = slice(0, grid.nx + 1)
-    c1, phi1, (gx1, gz1), held = _stage(
-        sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], div_u[xs, zs], dt, phi_max,
-        None if dilation is None else dilation[xs, zs])
-    c_new, phi_new = np.zeros_like(c), np.zeros_like(phi)
-    gx, gz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
-    c_new[xs, zs], phi_new[xs, zs] = c1, phi1
-    gx[xf, zs], gz[xs, zf] = gx1, gz1
-    return c_new, phi_new, (gx, gz), held
+def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: float):
+    """:func:`advect_material` on whole face arrays of ``geom`` (a Grid or a :class:`_Window`)."""
+    div_u = np.diff(u, axis=0) / geom.dx + np.diff(w, axis=1) / geom.dz
+    c1, phi_new, fluxes, held = _stage(geom, c, phi, u, w, div_u, dt, phi_max, dilation)
+    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, geom.cell_volume, psi_min)
+    return c_new, phi_new, fluxes, held, adjusted
 
 
 def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation=None,
@@ -451,10 +436,24 @@ def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation
     c = np.asarray(c, dtype=float)
     phi = np.asarray(phi, dtype=float)
     u, w = face_velocities(grid, vel)
-    div_u = (np.diff(u, axis=0) / grid.dx + np.diff(w, axis=1) / grid.dz)
     if dilation is not None:
         dilation = np.asarray(dilation, dtype=float).reshape(grid.cell_shape)
-    c1, phi_new, (gx, gz), held = _windowed_stage(grid, c, phi, u, w, div_u, dt, phi_max, dilation)
-    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, grid.cell_volume, psi_min)
+    win = material_window(grid, c, phi)
+    if win is None:
+        c_new, phi_new, (gx, gz), held, adjusted = _advect(grid, c, phi, u, w, dt, phi_max, dilation,
+                                                           psi_min)
+    else:  # the same arithmetic on the window only (material_window)
+        xs, zs = win
+        sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
+                      periodic_x=grid.periodic_x)
+        xf = slice(0, grid.nx + 1) if grid.periodic_x else slice(xs.start, xs.stop + 1)
+        zf = slice(zs.start, zs.stop + 1)
+        c1, phi1, (gx1, gz1), held, adjusted = _advect(
+            sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max,
+            None if dilation is None else dilation[xs, zs], psi_min)
+        c_new, phi_new = np.zeros_like(c), np.zeros_like(phi)
+        gx, gz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
+        c_new[xs, zs], phi_new[xs, zs] = c1, phi1
+        gx[xf, zs], gz[xs, zf] = gx1, gz1
     return MaterialTransport(c=c_new, phi=phi_new, flux_x=gx, flux_z=gz,
                              held_back=held, adjusted_volume=adjusted)
