@@ -530,6 +530,26 @@ class Model:
         implicit = (np.abs(vel) < u_b) & (drag > 0.0)
         return rho_s * gvec * np.where(implicit, centred, phi_f), np.where(implicit, drag, 0.0)
 
+    def _viscosity(self, phi_e, p_k, S):
+        """``(p_e, I_e, Z, eta)`` of :meth:`coefficients` on the given cells (no background)."""
+        p_e = np.hypot(np.maximum(p_k, 0.0), self.delta_p)
+        I_e = self.material.inertial_number(np.sqrt(S * S + self.eps * self.eps), p_e)
+        with np.errstate(all="ignore"):
+            Z = self.closure.Z(phi_e, I_e)
+            eta = mom.yield_viscosity(Z, p_k, S, self.eps) + VISCOUS_ADDITION_FACTOR * self.closure.eta_visc
+        return p_e, I_e, Z, eta
+
+    def cell_viscosity(self, phi_e, p_k, S, cells) -> np.ndarray:
+        """The viscosity of :meth:`coefficients` (its ``eta_c``) at the cells of the mask ``cells``
+        only, ``eta_a`` elsewhere [Pa s]; no dilatancy row (the base friction's second evaluation,
+        :func:`granflow.step.base_node_viscosity`)."""
+        cells = np.asarray(cells, dtype=bool)
+        idx = np.flatnonzero(cells)
+        eta = self._viscosity(*(np.asarray(x, dtype=float)[idx] for x in (phi_e, p_k, S)))[3]
+        out = np.full(cells.size, self.ambient.eta_a)
+        out[idx] = eta + self.background_viscosity
+        return out
+
     def coefficients(self, phi_e, p_k, S, dt: float, dense) -> Coefficients:
         """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2).
 
@@ -542,12 +562,8 @@ class Model:
         dense = np.asarray(dense, dtype=bool)
         idx = np.flatnonzero(dense)
         phi_e, p_k, S = (np.asarray(x, dtype=float)[idx] for x in (phi_e, p_k, S))
-        p_e = np.hypot(np.maximum(p_k, 0.0), self.delta_p)
-        S_reg = np.sqrt(S * S + self.eps * self.eps)
-        I_e = self.material.inertial_number(S_reg, p_e)
+        p_e, I_e, Z, eta = self._viscosity(phi_e, p_k, S)
         with np.errstate(all="ignore"):
-            Z = c.Z(phi_e, I_e)
-            eta = mom.yield_viscosity(Z, p_k, S, self.eps) + VISCOUS_ADDITION_FACTOR * c.eta_visc
             shear = np.where(S > 0, 2.0 * S * c.A(phi_e, I_e), 0.0)
             dshear = np.maximum(np.where(S > 0, S * I_e * c.dA_dI(phi_e, I_e), 0.0), 0.0)
             fac = ap_factor(c, phi_e, p_e, S, dt)

@@ -282,7 +282,7 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     base = base.ravel() & np.asarray(dense, dtype=bool).ravel()
     if not base.any():
         return eta_n
-    eta_wall = np.where(base, model.coefficients(phi_e, p_wall.ravel(), S, dt, base).eta_c, eta_c)
+    eta_wall = np.where(base, model.cell_viscosity(phi_e, p_wall.ravel(), S, base), eta_c)
     nodes, to_nodes = model.base_node_rows
     out = np.array(eta_n, dtype=float)
     out[nodes] = to_nodes @ eta_wall
