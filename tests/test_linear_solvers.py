@@ -197,6 +197,15 @@ def run_amg(systems_by_level: dict, schur: str) -> dict:
 # --------------------------------------------------------------------------------------------
 # Saddle-point systems of the solver
 # --------------------------------------------------------------------------------------------
+def _assert_accurate(table) -> None:
+    """Every solve of a run_amg table within ACCURACY of the direct one, converged, <= ITERATION_CAP."""
+    for rows in table.values():
+        for its, eu, ep, info in rows:
+            assert eu <= ACCURACY and ep <= ACCURACY, (eu, ep)
+            assert info.converged and info.scaled_residual <= RTOL * (1 + 1e-6)
+            assert its <= ITERATION_CAP
+
+
 @pytest.mark.parametrize("schur", ["augmented", "cahouet_chabard", "lsc"])
 def test_amg_reproduces_direct_mid_collapse_grid_independently(collapse_systems, schur):
     """Mid-collapse systems at 3 resolutions (1.2e3 .. 2e4 unknowns, every Picard sweep):
@@ -206,11 +215,7 @@ def test_amg_reproduces_direct_mid_collapse_grid_independently(collapse_systems,
     table = run_amg(collapse_systems["mid"], schur)
     print(f"\n{schur} mid-collapse iterations per sweep: "
           + "; ".join(f"{40 * r}x{15 * r}: {[row[0] for row in rows]}" for r, rows in table.items()))
-    for rows in table.values():
-        for its, eu, ep, info in rows:
-            assert eu <= ACCURACY and ep <= ACCURACY, (eu, ep)
-            assert info.converged and info.scaled_residual <= RTOL * (1 + 1e-6)
-            assert its <= ITERATION_CAP
+    _assert_accurate(table)
     per_level = [np.mean([row[0] for row in rows]) for rows in table.values()]
     assert max(per_level) <= GRID_INDEPENDENCE * min(per_level), per_level
 
@@ -223,11 +228,7 @@ def test_amg_reproduces_direct_mid_collapse_v2(collapse_systems, schur):
     table = run_amg(collapse_systems["mid_v2"], schur)
     print(f"\nv2 {schur} mid-collapse iterations per sweep: "
           + "; ".join(f"{40 * r}x{15 * r}: {[row[0] for row in rows]}" for r, rows in table.items()))
-    for rows in table.values():
-        for its, eu, ep, info in rows:
-            assert eu <= ACCURACY and ep <= ACCURACY, (eu, ep)
-            assert info.converged and info.scaled_residual <= RTOL * (1 + 1e-6)
-            assert its <= ITERATION_CAP
+    _assert_accurate(table)
 
 
 def test_amg_reproduces_direct_on_a_static_layer(static_systems):
