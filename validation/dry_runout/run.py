@@ -82,8 +82,9 @@ COARSE_N = {0.5: 14, 1.0: 14, 2.0: 14, 4.0: 16, 8.0: 32}
 REFINEMENT = math.sqrt(2.0)
 """Ratio of successive cell sizes (three levels: N0, sqrt(2) N0, 2 N0)."""
 N_LEVELS = 3
-LX_OVER_H0 = {0.5: 4.2, 1.0: 3.2, 2.0: 2.6, 4.0: 2.0, 8.0: 1.5}
-"""Box length [H0] per aspect ratio (furthest grain checked against it, per run)."""
+LX_OVER_H0 = {0.5: 5.5, 1.0: 4.5, 2.0: 3.6, 4.0: 2.8, 8.0: 2.2}
+"""Box length [H0] per aspect ratio (furthest grain checked against it, per run); enlarged on
+2026-12-03 for scheme v2, whose finest levels reached the v1 boxes' east walls."""
 LZ_OVER_H0 = 1.1
 """Box height [H0] (rounded up to whole cells)."""
 PHI_MAX = 0.6
