@@ -243,3 +243,19 @@ def test_windowed_material_stage_is_the_whole_grid_one(periodic, monkeypatch):
     for name in ("c", "phi", "flux_x", "flux_z"):
         assert np.array_equal(getattr(cut, name), getattr(whole, name)), name
     assert np.abs(whole.flux_x).max() > 0
+
+
+def test_shifted_is_the_clipped_take():
+    """physics.material._shifted (slices and copies) against its definition, the neighbour
+    k cells away with the wall cell repeated beyond a wall: np.take(q, clip(i + k, 0, n - 1))."""
+    from granflow.physics.material import _shifted
+
+    rng = np.random.default_rng(1)
+    for shape in [(5, 7), (1, 3), (2, 1), (40, 30)]:
+        q = rng.random(shape)
+        for axis in (0, 1):
+            n = q.shape[axis]
+            for k in (-3, -2, -1, 0, 1, 2, 3):
+                ref = np.take(q, np.clip(np.arange(n) + k, 0, n - 1), axis=axis)
+                assert np.array_equal(_shifted(q, k, axis, False), ref), (shape, axis, k)
+            assert np.array_equal(_shifted(q, 1, axis, True), np.roll(q, -1, axis=axis))

@@ -230,7 +230,15 @@ def _shifted(q: np.ndarray, k: int, axis: int, periodic: bool) -> np.ndarray:
     if periodic:
         return np.roll(q, -k, axis=axis)
     n = q.shape[axis]
-    return np.take(q, np.clip(np.arange(n) + k, 0, n - 1), axis=axis)
+    if k == 0:
+        return q
+    qa = np.moveaxis(q, axis, 0)  # slices and copies only: the values of np.take(q, clip(i + k))
+    m = min(abs(k), n)
+    if k > 0:
+        out = np.concatenate([qa[m:], np.broadcast_to(qa[-1:], (m,) + qa.shape[1:])])
+    else:
+        out = np.concatenate([np.broadcast_to(qa[:1], (m,) + qa.shape[1:]), qa[:n - m]])
+    return np.moveaxis(out, 0, axis)
 
 
 def interface_normal(c: np.ndarray, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
