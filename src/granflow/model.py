@@ -111,6 +111,7 @@ from granflow.physics.material import (
     advect_material,
     face_solid_fraction,
     material_fraction,
+    material_solid_fluxes,
     packing,
     surface_distance,
     surface_lithostatic,
@@ -373,6 +374,15 @@ class Model:
             return advect_material(self.grid, c, phi, vel, dt, self.material.phi_max, dilation,
                                    psi_min=self.ambient.phi_c)
         return advect(self.grid, phi, vel, dt, self.material.phi_max, self.phi_transport)
+
+    def transport_fluxes(self, phi, vel, dt: float, c=None) -> tuple:
+        """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] of :meth:`transport` with the same
+        arguments (the indicator: :func:`granflow.physics.material.material_solid_fluxes`, the
+        fluxes only)."""
+        if self.indicator:
+            return material_solid_fluxes(self.grid, c, phi, vel, dt, self.material.phi_max)
+        moved = self.transport(phi, vel, dt, c)
+        return moved.flux_x, moved.flux_z
 
     def _filter_mode(self):
         return ("wrap", "nearest") if self.grid.periodic_x else "nearest"

@@ -227,11 +227,15 @@ def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None, phi_f=N
     ``phi_f`` the dual-cell fraction of ``phi`` (``cell_to_face @ phi``, computed once per step by
     the caller): then ``m_k = rho_s max(phi_f - dt div_dual F_k, 0) + rho_a``, the same dual-cell
     mass (``T(phi, u_k) = phi - dt div F_k``) with one matvec less per sweep."""
-    moved = model.transport(phi, u_k, dt, c)
+    if phi_f is None:
+        moved = model.transport(phi, u_k, dt, c)
+        fx, fz = moved.flux_x, moved.flux_z
+    else:  # the fluxes only (the transported fields follow from them)
+        fx, fz = model.transport_fluxes(phi, u_k, dt, c)
     # the indicator's one-stage fluxes vanish beyond the window (v1's two-stage MUSCL: not cut)
     window = None if c is None else material_window(model.grid, c, phi)
-    A = mt.momentum_flux_divergence(model.grid, moved.flux_x, moved.flux_z, vel_n, window=window)
-    div_dual = mt.dual_mass_divergence(model.ops, moved.flux_x, moved.flux_z)
+    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window)
+    div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
     if phi_f is None:
         rho = model.inertia_density(moved.phi)
     else:

@@ -338,13 +338,20 @@ def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndar
     return fx, fz
 
 
+def _fluxes(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
+    """The volume and solid fluxes of a stage: ``(F_c, F_phi, held)`` (they do not depend on the
+    dilatation, which only changes the material volume afterwards)."""
+    fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
+    fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
+    gx, gz = solid_fluxes(grid, packing(c, phi), c > C_MIN, fcx, fcz)
+    gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
+    return (fcx, fcz), (gx, gz), held
+
+
 def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None):
     """One forward-Euler stage: ``(c*, phi*, F_c, F_phi, held)`` (module docstring)."""
     material, rows = c > C_MIN, c >= C_ROW   # rows: the cells with a dilatancy row
-    fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
-    fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
-    gx, gz = solid_fluxes(grid, packing(c, phi), material, fcx, fcz)
-    gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
+    (fcx, fcz), (gx, gz), held = _fluxes(grid, c, phi, u, w, dt, phi_max)
     c_new = c - dt * flux_divergence(grid, fcx, fcz)
     factor = np.maximum(1.0 - dt * div_u, MIN_DILATION_FACTOR)
     dilating = rows
@@ -418,6 +425,27 @@ def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: fl
     c1, phi_new, fluxes, held = _stage(geom, c, phi, u, w, div_u, dt, phi_max, dilation)
     c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, geom.cell_volume, psi_min)
     return c_new, phi_new, fluxes, held, adjusted
+
+
+def material_solid_fluxes(grid: Grid, c, phi, vel, dt: float, phi_max: float) -> tuple:
+    """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] that :func:`advect_material` with the same
+    arguments returns (bit for bit; on the :func:`material_window`), without the rest of the step:
+    what the consistent momentum transport needs at every Picard sweep."""
+    c = np.asarray(c, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    u, w = face_velocities(grid, vel)
+    win = material_window(grid, c, phi)
+    if win is None:
+        return _fluxes(grid, c, phi, u, w, dt, phi_max)[1]
+    xs, zs = win
+    sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
+                  periodic_x=grid.periodic_x)
+    xf = slice(0, grid.nx + 1) if grid.periodic_x else slice(xs.start, xs.stop + 1)
+    zf = slice(zs.start, zs.stop + 1)
+    gx1, gz1 = _fluxes(sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max)[1]
+    gx, gz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
+    gx[xf, zs], gz[xs, zf] = gx1, gz1
+    return gx, gz
 
 
 def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation=None,
