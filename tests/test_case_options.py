@@ -27,3 +27,14 @@ def test_numerics_options_reach_the_model(example):
 def test_column_collapse_rejects_a_periodic_grid():
     with pytest.raises(GranflowInputError, match="grid.periodic_x"):
         load_case(EXAMPLES / "column_collapse_dry.toml", overrides=["grid.periodic_x=true"])
+
+
+def test_material_fraction_output_needs_the_indicator_surface():
+    """output.fields = ["c"] with the threshold surface names the key (there is no c to write)."""
+    from granflow.errors import GranflowInputError
+
+    with pytest.raises(GranflowInputError, match="output.fields"):
+        load_case(EXAMPLES / "column_collapse_dry.toml",
+                  overrides=['numerics.surface="threshold"', 'output.fields=["phi", "c"]'])
+    cfg = load_case(EXAMPLES / "column_collapse_dry.toml", overrides=['output.fields=["phi", "c"]'])
+    assert cfg.output.fields == ["phi", "c"]

@@ -29,7 +29,7 @@ FLUIDISED = EXAMPLES / "column_collapse_fluidised.toml"
 NX, NZ = 16, 6
 TINY = ["--set", f"grid.nx={NX}", "--set", f"grid.nz={NZ}", "--set", "output.interval=0.01",
         "--set", "output.figures=false", "--set", "output.probes_x=[0.01, 0.2]", "--quiet"]
-FIELDS = ("phi", "u", "w", "p", "p_f", "S")
+FIELDS = ("phi", "c", "u", "w", "p", "p_f", "S")
 CF_ORDER = ("time", "z", "x")
 OLD_ORDER = ("time", "x", "z")
 N = 20

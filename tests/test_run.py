@@ -69,8 +69,12 @@ def test_run_writes_a_self_describing_netcdf(tiny_run):
             assert ds[name].attrs.get("long_name") or name == "time", name
         assert ds["time"].attrs["units"] == "s"
         assert ds["x"].attrs["units"] == "m" and ds["z"].attrs["units"] == "m"
-        assert set(ds.data_vars) >= {"phi", "u", "w", "p", "p_f", "S"}
+        assert set(ds.data_vars) >= {"phi", "c", "u", "w", "p", "p_f", "S"}
         assert ds["phi"].dims == ("time", "z", "x") and ds["phi"].shape[1:] == (6, 16)  # CF order
+        # the material fraction holds the grains: phi <= phi_max c, and c = 0 where phi = 0
+        phi, c = ds["phi"].values, ds["c"].values
+        assert np.all(phi <= ds["phi"].attrs["phi_max"] * c + 1e-12) and np.all(c[phi == 0] == 0)
+        assert 0.0 <= c.min() and c.max() <= 1.0
         assert ds.attrs["case_file"] == EXAMPLE.read_text()
         assert ds.attrs["granflow_version"] and "config_effective" in ds.attrs
         np.testing.assert_allclose(ds["time"].values, np.arange(6) * 0.01, rtol=0, atol=1e-12)

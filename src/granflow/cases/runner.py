@@ -66,6 +66,7 @@ EVERY_STEP = 1
 #: long_name only: no CF standard name describes a grain-phase quantity (solid fraction, pressure...).
 FIELD_SPECS = {
     "phi": ("1", "solid volume fraction"),
+    "c": ("1", "material fraction of the cell (indicator surface; packing inside the material = phi / c)"),
     "u": ("m s-1", "horizontal solid velocity (cell-centred mean of the face values)"),
     "w": ("m s-1", "vertical solid velocity (cell-centred mean of the face values)"),
     "p": ("Pa", "granular pressure"),
@@ -219,7 +220,7 @@ class CaseRun:
                                           "axis": "Z", "positive": "up",
                                           **({"standard_name": "height"} if length == "m" else {})})}
         variables = {}
-        for name in self.config.output.fields:
+        for name in self._field_names():
             units, long_name = FIELD_SPECS[name]
             attrs = {"phi_max": self.phi_max} if name == "phi" else None
             variables[name] = VariableSpec(FIELD_DIMS, unit(SI_KIND.get(units, units)), long_name,
@@ -269,10 +270,14 @@ class CaseRun:
     def _fields(self) -> dict[str, np.ndarray]:
         g, st = self.grid, self.sim.state
         u, w = g.unpack_velocity(st.vel)
-        all_fields = {"phi": st.phi, "u": 0.5 * (u[1:, :] + u[:-1, :]), "w": 0.5 * (w[:, 1:] + w[:, :-1]),
-                      "p": st.p, "p_f": st.p_f,
+        all_fields = {"phi": st.phi, "c": st.c, "u": 0.5 * (u[1:, :] + u[:-1, :]),
+                      "w": 0.5 * (w[:, 1:] + w[:, :-1]), "p": st.p, "p_f": st.p_f,
                       "S": self.sim.model.ops.strain_rate_norm(st.vel).reshape(g.cell_shape)}
-        return {k: all_fields[k].T for k in self.config.output.fields}  # (x, z) -> (z, x) on disk
+        return {k: all_fields[k].T for k in self._field_names()}  # (x, z) -> (z, x) on disk
+
+    def _field_names(self) -> list[str]:
+        """``output.fields`` less ``c`` when the model has no material indicator."""
+        return [k for k in self.config.output.fields if k != "c" or self.sim.model.indicator]
 
     def front(self) -> float:
         """Front position of the current state [m] (nan if no column is above the threshold)."""

@@ -34,6 +34,10 @@ def common_problems(cfg) -> list[tuple[str, str]]:
     if isinstance(height, float) and not cfg.material.d < height:
         out.append(("material.d", f"grain diameter {cfg.material.d:g} m is not smaller than the "
                                   f"column ({column_key} = {height:g} m)"))
+    if ("fields" in cfg.output.model_fields_set and "c" in cfg.output.fields
+            and cfg.numerics.surface != "indicator"):
+        out.append(("output.fields", f'"c" (the material fraction) exists only with numerics.surface = '
+                                     f'"indicator" (got {cfg.numerics.surface!r})'))
     out += yield_problems(cfg)
     return out
 

@@ -77,7 +77,7 @@ DEFAULT_GRAVITY = 9.81
 """Magnitude of gravity [m s^-2]."""
 MAX_SLOPE_DEG = 90.0
 """Slope angles must lie strictly within (-90, 90) degrees."""
-OUTPUT_FIELDS = ("phi", "u", "w", "p", "p_f", "S")
+OUTPUT_FIELDS = ("phi", "c", "u", "w", "p", "p_f", "S")
 """Cell-centred fields that can be written to the NetCDF output."""
 WallCondition = Literal["no_slip", "free_slip"]
 GasLawName = Literal["none", "linear", "nonlinear"]
@@ -249,7 +249,8 @@ class OutputSection(Section):
     checkpoint_keep: int = Field(2, ge=1, description="number of newest periodic checkpoints kept [-]")
     fields: list[Literal[OUTPUT_FIELDS]] = Field(  # type: ignore[valid-type]
         default_factory=lambda: list(OUTPUT_FIELDS), min_length=1,
-        description=f"fields written at cell centres, any of {list(OUTPUT_FIELDS)} [-]")
+        description=f"fields written at cell centres, any of {list(OUTPUT_FIELDS)} (c, the material "
+        "fraction, only with numerics.surface = \"indicator\") [-]")
     front_threshold: float | None = Field(None, gt=0, description="deposit thickness defining the "
                                           "front (default: the case's, e.g. 0.05 H0 for column_collapse, else one cell height) [m]")
     probes_x: list[float] = Field(default_factory=list, description="x of basal probes [m]: p_f and p of "
