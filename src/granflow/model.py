@@ -375,12 +375,12 @@ class Model:
                                    psi_min=self.ambient.phi_c)
         return advect(self.grid, phi, vel, dt, self.material.phi_max, self.phi_transport)
 
-    def transport_fluxes(self, phi, vel, dt: float, c=None) -> tuple:
+    def transport_fluxes(self, phi, vel, dt: float, c=None, window="auto") -> tuple:
         """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] of :meth:`transport` with the same
         arguments (the indicator: :func:`granflow.physics.material.material_solid_fluxes`, the
-        fluxes only)."""
+        fluxes only; ``window`` its material window if known)."""
         if self.indicator:
-            return material_solid_fluxes(self.grid, c, phi, vel, dt, self.material.phi_max)
+            return material_solid_fluxes(self.grid, c, phi, vel, dt, self.material.phi_max, window)
         moved = self.transport(phi, vel, dt, c)
         return moved.flux_x, moved.flux_z
 

@@ -217,7 +217,7 @@ def hint_viscosity(model, eta) -> np.ndarray:
     return np.maximum(eta, model.ambient.eta_a)
 
 
-def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None, phi_f=None):
+def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None, phi_f=None, window="auto"):
     """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
     (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
     the solid fluxes ``F_k``; the solve uses ``m_k = rho_s phi_f(T(phi, u_k)) + rho_a`` (the
@@ -226,14 +226,19 @@ def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None, phi_f=N
     Returns ``(m_k, (A, div_dual F_k), rhs)``; ``c`` the material fraction (indicator surface);
     ``phi_f`` the dual-cell fraction of ``phi`` (``cell_to_face @ phi``, computed once per step by
     the caller): then ``m_k = rho_s max(phi_f - dt div_dual F_k, 0) + rho_a``, the same dual-cell
-    mass (``T(phi, u_k) = phi - dt div F_k``) with one matvec less per sweep."""
+    mass (``T(phi, u_k) = phi - dt div F_k``) with one matvec less per sweep; ``window`` the
+    :func:`granflow.physics.material.material_window` of ``(c, phi)`` (the same at every sweep of
+    a step), ``"auto"`` to compute it."""
     if phi_f is None:
         moved = model.transport(phi, u_k, dt, c)
         fx, fz = moved.flux_x, moved.flux_z
-    else:  # the fluxes only (the transported fields follow from them)
-        fx, fz = model.transport_fluxes(phi, u_k, dt, c)
     # the indicator's one-stage fluxes vanish beyond the window (v1's two-stage MUSCL: not cut)
-    window = None if c is None else material_window(model.grid, c, phi)
+    if c is None:
+        window = None
+    elif isinstance(window, str):
+        window = material_window(model.grid, c, phi)
+    if phi_f is not None:  # the fluxes only (the transported fields follow from them)
+        fx, fz = model.transport_fluxes(phi, u_k, dt, c, window)
     A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window)
     div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
     if phi_f is None:
@@ -309,11 +314,13 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     changes, rel, n_negz, krylov, converged, sweeps = 0, np.inf, 0, 0, False, 0
     rho_k, flux_div, rhs_u = ex.rho_n, None, ex.rhs_u
     phi_f_n = ops.cell_to_face @ state.phi.ravel() if consistent else None
+    window_n = (material_window(g, state.c, state.phi) if consistent and state.c is not None
+                else None)
     for sweeps in range(1, model.picard.max_sweeps + 1):
         t0 = time.perf_counter()
         if consistent:
             rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u,
-                                                        state.c, phi_f_n)
+                                                        state.c, phi_f_n, window_n)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
         S_k = ops.strain_rate_norm(u_k)
         coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)

@@ -232,13 +232,14 @@ def _shifted(q: np.ndarray, k: int, axis: int, periodic: bool) -> np.ndarray:
     n = q.shape[axis]
     if k == 0:
         return q
-    qa = np.moveaxis(q, axis, 0)  # slices and copies only: the values of np.take(q, clip(i + k))
-    m = min(abs(k), n)
+    m = min(abs(k), n)  # slices and copies only: the values of np.take(q, clip(i + k, 0, n - 1))
+    if axis == 0:
+        if k > 0:
+            return np.concatenate([q[m:], np.repeat(q[-1:], m, axis=0)])
+        return np.concatenate([np.repeat(q[:1], m, axis=0), q[:n - m]])
     if k > 0:
-        out = np.concatenate([qa[m:], np.broadcast_to(qa[-1:], (m,) + qa.shape[1:])])
-    else:
-        out = np.concatenate([np.broadcast_to(qa[:1], (m,) + qa.shape[1:]), qa[:n - m]])
-    return np.moveaxis(out, 0, axis)
+        return np.concatenate([q[:, m:], np.repeat(q[:, -1:], m, axis=1)], axis=1)
+    return np.concatenate([np.repeat(q[:, :1], m, axis=1), q[:, :n - m]], axis=1)
 
 
 def interface_normal(c: np.ndarray, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -427,14 +428,17 @@ def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: fl
     return c_new, phi_new, fluxes, held, adjusted
 
 
-def material_solid_fluxes(grid: Grid, c, phi, vel, dt: float, phi_max: float) -> tuple:
+def material_solid_fluxes(grid: Grid, c, phi, vel, dt: float, phi_max: float,
+                          window: tuple | None | str = "auto") -> tuple:
     """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] that :func:`advect_material` with the same
     arguments returns (bit for bit; on the :func:`material_window`), without the rest of the step:
-    what the consistent momentum transport needs at every Picard sweep."""
+    what the consistent momentum transport needs at every Picard sweep. ``window``: the
+    :func:`material_window` of ``(c, phi)`` if already known (None: the whole grid), else
+    ``"auto"`` to compute it."""
     c = np.asarray(c, dtype=float)
     phi = np.asarray(phi, dtype=float)
     u, w = face_velocities(grid, vel)
-    win = material_window(grid, c, phi)
+    win = material_window(grid, c, phi) if isinstance(window, str) else window
     if win is None:
         return _fluxes(grid, c, phi, u, w, dt, phi_max)[1]
     xs, zs = win
