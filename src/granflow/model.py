@@ -521,7 +521,7 @@ class Model:
         So that part is implicit (``drag`` joins the mass matrix); the rest (saturated
         faces ``|u^n| >= u_b``, anti-damping faces, or ``consistent_gravity=False``) is explicit.
         """
-        g, ops = self.grid, self.ops
+        g = self.grid
         rho_s = self.material.rho_s
         phi = np.asarray(phi, dtype=float).reshape(g.cell_shape)
         vel = np.asarray(vel, dtype=float)

@@ -277,7 +277,7 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     interior z-face). The basal shear stress ``2 eta_n S_xz`` is then ``Z p_wall`` for a film of
     any thickness, where the centre pressure gives half the weight of a one-cell layer.
     """
-    g, ops = model.grid, model.ops
+    g = model.grid
     nx, nz = g.cell_shape
     p2 = np.asarray(p_eval, dtype=float).reshape(nx, nz)
     phi2 = np.asarray(phi_e, dtype=float).reshape(nx, nz)

@@ -270,7 +270,8 @@ class CaseRun:
     def _fields(self) -> dict[str, np.ndarray]:
         g, st = self.grid, self.sim.state
         u, w = g.unpack_velocity(st.vel)
-        all_fields = {"phi": st.phi, "c": st.c, "u": 0.5 * (u[1:, :] + u[:-1, :]),
+        c = st.c if st.c is not None or not self.sim.model.indicator else self.sim.model.material_of(st.phi)
+        all_fields = {"phi": st.phi, "c": c, "u": 0.5 * (u[1:, :] + u[:-1, :]),
                       "w": 0.5 * (w[:, 1:] + w[:, :-1]), "p": st.p, "p_f": st.p_f,
                       "S": self.sim.model.ops.strain_rate_norm(st.vel).reshape(g.cell_shape)}
         return {k: all_fields[k].T for k in self._field_names()}  # (x, z) -> (z, x) on disk
