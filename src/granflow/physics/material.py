@@ -428,6 +428,15 @@ def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: fl
     return c_new, phi_new, fluxes, held, adjusted
 
 
+def _window_geometry(grid: Grid, win: tuple[slice, slice]) -> tuple:
+    """``(_Window, x-face slice, z-face slice)`` of the cell ranges ``win``."""
+    xs, zs = win
+    sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
+                  periodic_x=grid.periodic_x)
+    xf = slice(0, grid.nx + 1) if grid.periodic_x else slice(xs.start, xs.stop + 1)
+    return sub, xf, slice(zs.start, zs.stop + 1)
+
+
 def material_solid_fluxes(grid: Grid, c, phi, vel, dt: float, phi_max: float,
                           window: tuple | None | str = "auto") -> tuple:
     """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] that :func:`advect_material` with the same
@@ -442,10 +451,7 @@ def material_solid_fluxes(grid: Grid, c, phi, vel, dt: float, phi_max: float,
     if win is None:
         return _fluxes(grid, c, phi, u, w, dt, phi_max)[1]
     xs, zs = win
-    sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
-                  periodic_x=grid.periodic_x)
-    xf = slice(0, grid.nx + 1) if grid.periodic_x else slice(xs.start, xs.stop + 1)
-    zf = slice(zs.start, zs.stop + 1)
+    sub, xf, zf = _window_geometry(grid, win)
     gx1, gz1 = _fluxes(sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max)[1]
     gx, gz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
     gx[xf, zs], gz[xs, zf] = gx1, gz1
@@ -484,10 +490,7 @@ def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation
                                                            psi_min)
     else:  # the same arithmetic on the window only (material_window)
         xs, zs = win
-        sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
-                      periodic_x=grid.periodic_x)
-        xf = slice(0, grid.nx + 1) if grid.periodic_x else slice(xs.start, xs.stop + 1)
-        zf = slice(zs.start, zs.stop + 1)
+        sub, xf, zf = _window_geometry(grid, win)
         c1, phi1, (gx1, gz1), held, adjusted = _advect(
             sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max,
             None if dilation is None else dilation[xs, zs], psi_min)
