@@ -224,7 +224,7 @@ def _speed_contours(fig):
 
 def test_snapshot_speed_contours_are_grain_only_labelled_and_above_noise(tmp_path, capsys, monkeypatch):
     """A collapse in motion: speed contours are labelled, every level is above the run's rest
-    speed, and no contour leaves the grains (phi >= phi_c, read from output.nc here)."""
+    speed, and no contour leaves the grains (c > 0, the material fraction read from output.nc)."""
     import netCDF4
 
     saved = _capture_figures(monkeypatch)
@@ -236,8 +236,7 @@ def test_snapshot_speed_contours_are_grain_only_labelled_and_above_noise(tmp_pat
     assert contours, "the moving column has speed contours"
     with netCDF4.Dataset(out / "output.nc") as nc:
         x, z = np.asarray(nc["x"][:]), np.asarray(nc["z"][:])
-        phi = ordered(nc["phi"]).astype(float)  # (time, x, z)
-        phi_c = float(nc.getncattr("phi_c"))
+        c = ordered(nc["c"]).astype(float)  # (time, x, z)
         rest = float(nc.getncattr("rest_speed"))
     dx, dz = x[1] - x[0], z[1] - z[0]
     for ax, cs in contours:
@@ -245,7 +244,7 @@ def test_snapshot_speed_contours_are_grain_only_labelled_and_above_noise(tmp_pat
         assert len(ax.texts) >= 1  # clabel: the levels are labelled
         record = int(np.argmin([abs(float(ax.get_title().split("t = ")[1].split()[0]) - t)
                                 for t in s["front_position"]["t_s"]]))
-        grains = phi[record] >= phi_c
+        grains = c[record] > 0.0
         top = np.array([z[np.flatnonzero(col)].max() if col.any() else -np.inf for col in grains])
         for path in cs.get_paths():
             for xv, zv in path.vertices:
@@ -404,7 +403,7 @@ def test_inclined_figure_is_u_of_z_against_bagnold(tmp_path, capsys, monkeypatch
     assert max(bagnold.get_ydata()) == pytest.approx(d["h_m"], rel=1e-12)
     with netCDF4.Dataset(out / "output.nc") as nc:
         u = ordered(nc["u"])[-1].astype(float)  # (x, z)
-        grains = ordered(nc["phi"])[-1] >= nc.getncattr("phi_c")
+        grains = ordered(nc["c"])[-1] > 0.0  # the material (indicator surface, the default)
     import warnings
 
     with warnings.catch_warnings():  # the ambient rows have no grain cell: NaN

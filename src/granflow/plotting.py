@@ -131,21 +131,33 @@ def rest_speed_of(ds) -> float:
         return 0.0
 
 
+SURFACE_FRACTION = 0.5
+"""Material fraction of the drawn free surface (indicator runs: the c = 1/2 contour; a cell's
+material fills it from below, so its centre is on the surface at c = 1/2)."""
+
+
+def grain_rule(ds) -> str:
+    """How :func:`grain_cells` tells grains from air, for labels: ``"c > 0"`` (a run with the
+    material fraction c, the indicator surface) or ``"phi >= phi_c"``."""
+    return "c > 0" if "c" in ds else f"phi >= {free_surface_level(ds):g}"
+
+
 def grain_cells(ds, index: int | None = None):
-    """Boolean mask over (time, x, z) (or (x, z) for one record) of the cells holding grains,
-    phi >= phi_c (the ambient below phi_c is air, whose velocity is not grain motion); None
-    without a phi variable."""
-    if "phi" not in ds:
+    """Boolean mask over (time, x, z) (or (x, z) for one record) of the cells holding grains:
+    material fraction c > 0 when the run wrote c (indicator surface), else phi >= phi_c (the
+    ambient below phi_c is air, whose velocity is not grain motion); None without either."""
+    if "c" in ds:
+        mask = np.asarray(ds["c"].transpose("time", "x", "z").values, dtype=float) > 0.0
+    elif "phi" in ds:
+        phi = ds["phi"].transpose("time", "x", "z")
+        mask = np.asarray(phi.values, dtype=float) >= free_surface_level(ds)
+    else:
         return None
-    phi = ds["phi"].transpose("time", "x", "z")
-    phi_c = free_surface_level(ds)
-    mask = np.asarray(phi.values, dtype=float) >= phi_c
     return mask if index is None else mask[index]
 
 
 def speed_contours(ax, ds, index: int):
-    """Labelled contours of the grain speed |u| of record ``index`` (cells with phi >= phi_c
-    only), at :data:`SPEED_LEVEL_FRACTIONS` of its largest value, each level above the run's rest
+    """Labelled contours of the grain speed |u| of record ``index`` (:func:`grain_cells` only), at :data:`SPEED_LEVEL_FRACTIONS` of its largest value, each level above the run's rest
     speed; nothing where the grains are at rest (a static layer's 1e-12 m/s is not drawn).
     Returns the ContourSet or None."""
     speed = np.asarray(run_field(ds, SPEED).values[index], dtype=float)
@@ -301,7 +313,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
             ax.set_xlabel(f"x [{lu}]")
             fig.colorbar(m, ax=ax, shrink=0.8)
     fig.suptitle(f"packing phi; labelled contours: grain speed [{units_of(ds, 'u', 'm s-1')}] where "
-                 f"phi >= {free_surface_level(ds):g}, above the rest speed; dashed: front x_f", fontsize="small")
+                 f"{grain_rule(ds)}, above the rest speed; dashed: front x_f", fontsize="small")
     snap_path = outdir / "snapshots.png"
     fig.savefig(snap_path, dpi=100)
     plt.close(fig)
@@ -406,7 +418,7 @@ def run_field(ds, var: str):
     if mask is not None:  # grain quantities only where there are grains (the ambient is air)
         attrs = dict(field.attrs)
         field = field.where(mask)
-        attrs["long_name"] = f"{attrs.get('long_name', var)}, grains only (phi >= {free_surface_level(ds):g})"
+        attrs["long_name"] = f"{attrs.get('long_name', var)}, grains only ({grain_rule(ds)})"
         field.attrs = attrs
     field.name = var
     return field
@@ -448,13 +460,15 @@ def _title(ds, var: str, index: int) -> str:
 
 
 def _surface(ax, ds, index: int, phi_c: float):
-    """The phi = phi_c contour of record ``index`` (None if phi is absent or does not cross it)."""
-    if "phi" not in ds:
+    """The free surface of record ``index``: the c = :data:`SURFACE_FRACTION` contour when the run
+    wrote c, else the phi = phi_c one (None if the field is absent or does not cross the level)."""
+    name, level = ("c", SURFACE_FRACTION) if "c" in ds else ("phi", phi_c)
+    if name not in ds:
         return None
-    phi = np.asarray(ds["phi"].transpose("time", "x", "z").values[index], dtype=float)
-    if not (np.nanmin(phi) < phi_c < np.nanmax(phi)):
+    q = np.asarray(ds[name].transpose("time", "x", "z").values[index], dtype=float)
+    if not (np.nanmin(q) < level < np.nanmax(q)):
         return None
-    return ax.contour(ds["x"].values, ds["z"].values, phi.T, levels=[phi_c], colors="k",
+    return ax.contour(ds["x"].values, ds["z"].values, q.T, levels=[level], colors="k",
                       linewidths=1.0)
 
 
