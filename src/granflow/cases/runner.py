@@ -35,6 +35,7 @@ import numpy as np
 
 from granflow import diagnostics as dg
 from granflow.cases.memory import check_memory
+from granflow.cases.output_specs import FIELD_SPECS, PROBE_DIM, PROBE_SPECS, SERIES_SPECS, SI_KIND, UNIT_KINDS
 from granflow.cases.registry import CASES
 from granflow.cases.restart import CHECKPOINT_DIR, check_checkpoint, resolve_checkpoint
 from granflow.cases.wall_contact import WallWatch, warning_text
@@ -62,31 +63,6 @@ REST_SPEED_FACTOR = 10.0
 """Default rest speed = REST_SPEED_FACTOR eps Lz [m s^-1] (eps Lz is the creep speed scale)."""
 EVERY_STEP = 1
 
-#: NetCDF declarations of the cell-centred fields (name -> units, long_name), stored (time, z, x);
-#: long_name only: no CF standard name describes a grain-phase quantity (solid fraction, pressure...).
-FIELD_SPECS = {
-    "phi": ("1", "solid volume fraction"),
-    "c": ("1", "material fraction of the cell (indicator surface; packing inside the material = phi / c)"),
-    "u": ("m s-1", "horizontal solid velocity (cell-centred mean of the face values)"),
-    "w": ("m s-1", "vertical solid velocity (cell-centred mean of the face values)"),
-    "p": ("Pa", "granular pressure"),
-    "p_f": ("Pa", "pore-gas over-pressure (zero in the dry model)"),
-    "S": ("s-1", "norm of the deviatoric strain rate |S|, |S|^2 = S:S/2"),
-}
-PROBE_DIM = "x_probe"
-PROBE_SPECS = {
-    "probe_p_f": ("Pa", "pore-gas pressure p_f of the bottom cell at each basal probe"),
-    "probe_p": ("Pa", "granular pressure p of the bottom cell at each basal probe"),
-}
-"""Time series at the basal probes (``output.probes_x``)."""
-SERIES_SPECS = {
-    "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
-    "x_front": ("m", f"front position: {dg.FRONT_DEFINITION} (attribute front_threshold_m; resolution dx)"),
-}
-UNIT_KINDS = ("length", "time", "speed", "pressure", "rate", "energy")
-SI_KIND = {"m": "length", "s": "time", "m s-1": "speed", "Pa": "pressure", "s-1": "rate", "J m-1": "energy"}
-"""The SI units of the output and the kind of quantity each stands for (a dimensionless case
-replaces them: :attr:`granflow.cases.registry.Case.units`)."""
 UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
     "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
