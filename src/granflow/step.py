@@ -217,34 +217,22 @@ def hint_viscosity(model, eta) -> np.ndarray:
     return np.maximum(eta, model.ambient.eta_a)
 
 
-def consistent_inertia(model, phi, vel_n, u_k, dt: float, rhs_0, c=None, phi_f=None, window="auto"):
+def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, window):
     """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
     (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
-    the solid fluxes ``F_k``; the solve uses ``m_k = rho_s phi_f(T(phi, u_k)) + rho_a`` (the
-    dual-cell mass after the step) and ``rhs_0 - rho_s A(F_k, u^n)``. At Picard convergence
-    ``F_k`` is the flux of the step's own transport, so mass and momentum move together.
-    Returns ``(m_k, (A, div_dual F_k), rhs)``; ``c`` the material fraction (indicator surface);
-    ``phi_f`` the dual-cell fraction of ``phi`` (``cell_to_face @ phi``, computed once per step by
-    the caller): then ``m_k = rho_s max(phi_f - dt div_dual F_k, 0) + rho_a``, the same dual-cell
-    mass (``T(phi, u_k) = phi - dt div F_k``) with one matvec less per sweep; ``window`` the
-    :func:`granflow.physics.material.material_window` of ``(c, phi)`` (the same at every sweep of
-    a step), ``"auto"`` to compute it."""
-    if phi_f is None:
-        moved = model.transport(phi, u_k, dt, c)
-        fx, fz = moved.flux_x, moved.flux_z
-    # the indicator's one-stage fluxes vanish beyond the window (v1's two-stage MUSCL: not cut)
-    if c is None:
-        window = None
-    elif isinstance(window, str):
-        window = material_window(model.grid, c, phi)
-    if phi_f is not None:  # the fluxes only (the transported fields follow from them)
-        fx, fz = model.transport_fluxes(phi, u_k, dt, c, window)
+    the solid fluxes ``F_k`` (:meth:`granflow.model.Model.transport_fluxes`, the fluxes only);
+    the solve uses the dual-cell mass after that step, ``m_k = rho_s max(phi_f - dt div_dual F_k,
+    0) + rho_a`` (``phi_f = cell_to_face @ phi``, computed once per step), and
+    ``rhs_0 - rho_s A(F_k, u^n)``. At Picard convergence ``F_k`` is the flux of the step's own
+    transport, so mass and momentum move together. ``c`` the material fraction (None: threshold
+    surface); ``window`` the :func:`granflow.physics.material.material_window` of ``(c, phi)``,
+    the same at every sweep of a step (None: the whole grid; the indicator's one-stage fluxes
+    vanish beyond it, v1's two-stage MUSCL fluxes are not cut). Returns
+    ``(m_k, (A, div_dual F_k), rhs)``."""
+    fx, fz = model.transport_fluxes(phi, u_k, dt, c, window)
     A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window)
     div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
-    if phi_f is None:
-        rho = model.inertia_density(moved.phi)
-    else:
-        rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
+    rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
     return rho, (A, div_dual), rhs_0 - model.material.rho_s * A
 
 
@@ -319,7 +307,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     for sweeps in range(1, model.picard.max_sweeps + 1):
         t0 = time.perf_counter()
         if consistent:
-            rho_k, flux_div, rhs_u = consistent_inertia(model, state.phi, state.vel, u_k, dt, ex.rhs_u,
+            rho_k, flux_div, rhs_u = consistent_inertia(model, state.vel, u_k, dt, ex.rhs_u, state.phi,
                                                         state.c, phi_f_n, window_n)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
         S_k = ops.strain_rate_norm(u_k)
