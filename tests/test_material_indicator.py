@@ -277,3 +277,25 @@ def test_solid_fluxes_only_are_those_of_the_whole_step():
     fx, fz = material_solid_fluxes(g, c, phi, vel, 0.02, 0.6)
     assert np.array_equal(fx, whole.flux_x) and np.array_equal(fz, whole.flux_z)
     assert np.abs(fz).max() > 0
+
+
+def test_draining_cells_never_go_negative():
+    """Random material fields (partial and full cells, packings 0.3-0.6) under random velocities at
+    CFL 1/4: a cell that its outflow drains must not lose more grains than it holds, although the
+    upwind MUSCL packing of a face can exceed the donor's (phi >= 0 to round-off; without the
+    solid fluxes' lower-bound limiter the minimum was -1.4e-3 over these 300 draws)."""
+    rng = np.random.default_rng(1)
+    g = Grid(nx=6, nz=6, Lx=0.06, Lz=0.06)
+    lowest = 0.0
+    for _ in range(300):
+        c = np.where(rng.random(g.cell_shape) < 0.7, rng.random(g.cell_shape), 0.0)
+        c[rng.random(g.cell_shape) < 0.4] = 1.0
+        phi = c * rng.uniform(0.3, 0.6, g.cell_shape)
+        u, w = rng.normal(size=g.xface_shape), rng.normal(size=g.zface_shape)
+        u[[0, -1]] = 0.0
+        w[:, [0, -1]] = 0.0
+        dt = 0.25 / max(np.abs(u).max() / g.dx, np.abs(w).max() / g.dz)
+        out = advect_material(g, c, phi, g.pack_velocity(u, w), dt, 0.6)
+        assert abs(out.phi.sum() - phi.sum()) <= 1e-13 * phi.sum()
+        lowest = min(lowest, float(out.phi.min()))
+    assert lowest >= -1e-15

@@ -26,8 +26,10 @@ surface they keep sharp; the MUSCL-minmod packing is TVD under forward Euler for
   surface stays within one or two cells), outflows limited so that ``c >= 0``;
 * solid fluxes ``F_phi = psi_f F_c``: the grains cross a face inside the material volume that
   crosses it, with ``psi_f`` the upwind MUSCL-minmod value of ``psi`` (slopes taken only between
-  material cells). So ``phi`` is conserved to round-off (a flux form) and a cell never loses more
-  grains than it holds (``psi_f F_c <= psi c`` on outflow);
+  material cells). So ``phi`` is conserved to round-off (a flux form); the outflows of a cell
+  are scaled so that it never loses more grains than it holds (the MUSCL ``psi_f`` can exceed
+  the donor's ``psi``: a draining cell's last grains would otherwise leave it at ``phi < 0``,
+  measured -3e-10 in a fluidised collapse);
 * ``c* = (c - dt div F_c) / (1 - dt div u)`` in the cells with a dilatancy row (``c >= C_ROW``;
   the source implicit: a full cell stays exactly full, ``1 - dt div u`` over ``1 - dt div u``;
   in a partial one, with the velocity linear across the cell, the surface moves at the velocity
@@ -345,6 +347,8 @@ def _fluxes(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
     fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
     fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
     gx, gz = solid_fluxes(grid, packing(c, phi), c > C_MIN, fcx, fcz)
+    # a MUSCL psi_f above the donor's psi can take more grains than a draining cell holds
+    gx, gz = limit_to_lower_bound(phi, gx, gz, dt, grid.dx, grid.dz, grid.periodic_x)
     gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
     return (fcx, fcz), (gx, gz), held
 
