@@ -230,7 +230,7 @@ def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, windo
     vanish beyond it, v1's two-stage MUSCL fluxes are not cut). Returns
     ``(m_k, (A, div_dual F_k), rhs)``."""
     fx, fz = model.transport_fluxes(phi, u_k, dt, c, window)
-    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window)
+    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta)
     div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
     rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
     return rho, (A, div_dual), rhs_0 - model.material.rho_s * A

@@ -16,9 +16,9 @@ The box is Lx = :data:`LX_OVER_H0` [a] H0 long (the furthest grain, phi > 1e-3, 
 falls: the highest grain is recorded and checked).
 
 Run to rest: ``time.stop_at_rest = 0.1`` s with ``output.rest_speed = 7.5e-3`` m/s (the examples'
-10 eps Lz at their Lz = 0.15 m, set explicitly because the default depends on Lz) and
-``numerics.gravity_blend_velocity = 7.5e-4`` m/s (the examples' eps Lz, idem); ``stop_time`` = 2 s
-is an upper bound. ``numerics.linear_solver = "auto"``, every other option as in the example.
+10 eps Lz at their Lz = 0.15 m, set explicitly because the default depends on Lz); scheme v1
+(:data:`V1_OPTIONS`) also sets ``numerics.gravity_blend_velocity = 7.5e-4`` m/s (the examples'
+v1 eps Lz, idem; scheme v2's default is ``|g| dt``); ``stop_time`` = 2 s is an upper bound. ``numerics.linear_solver = "auto"``, every other option as in the example.
 
 Fronts (from h(x) = sum_z phi dz / phi_max at every 0.02 s, with the analysis functions of
 validation/lagree_column/run.py, imported): ``thr0.05``, where the piecewise-linear interpolant of
@@ -95,7 +95,12 @@ STOP_AT_REST = 0.1
 REST_SPEED = 7.5e-3
 """[m/s] the examples' default 10 eps Lz with Lz = 0.15 m."""
 GRAVITY_BLEND = 7.5e-4
-"""[m/s] the examples' default eps Lz with Lz = 0.15 m."""
+"""[m/s] the examples' scheme-v1 default eps Lz with Lz = 0.15 m: to be set with the threshold
+surface, whose default depends on Lz (:data:`V1_OPTIONS`); the indicator surface's default,
+``|g| dt``, does not."""
+V1_OPTIONS = ("numerics.advection=upwind", "numerics.surface=threshold",
+              f"numerics.gravity_blend_velocity={GRAVITY_BLEND}")
+"""``--set`` overrides of scheme v1 for :func:`run_one`'s ``extra`` (tests)."""
 OUTPUT_INTERVAL = 0.02
 THRESHOLD = 0.05
 """Front threshold [H0] (the case's FRONT_THRESHOLD_FRACTION)."""
@@ -142,7 +147,7 @@ def overrides(a: float, n: float, max_steps: int | None = None) -> list[str]:
     out = [f"setup.H0={H0}", f"setup.L0={g['L0']!r}", f"grid.nx={g['nx']}", f"grid.nz={g['nz']}",
            f"grid.Lx={g['Lx']!r}", f"grid.Lz={g['Lz']!r}", f"time.stop_time={STOP_TIME}",
            f"time.stop_at_rest={STOP_AT_REST}", f"output.interval={OUTPUT_INTERVAL}",
-           f"output.rest_speed={REST_SPEED}", f"numerics.gravity_blend_velocity={GRAVITY_BLEND}",
+           f"output.rest_speed={REST_SPEED}",
            'numerics.linear_solver="auto"', 'output.fields=["phi"]', "output.figures=false",
            "output.checkpoint_interval=1000000"]
     if max_steps is not None:

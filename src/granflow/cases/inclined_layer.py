@@ -268,7 +268,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
     u_s = surface_velocity(sim)
     out: dict[str, Any] = {"theta_deg": config.gravity.slope_deg, "beta": s.beta, "h0_m": s.h0,
                            "phi0": initial_packing(config), "start": s.start,
-                           "gravity_blend_velocity_m_s": model.gravity_blend_velocity,
+                           "gravity_blend_velocity_m_s": model.blend_velocity(config.time.dt_max),
                            "u_surface_m_s": u_s, "injection_m_s": injection_velocity(config)}
     rec = _record(sim)
     if rec is not None:

@@ -51,6 +51,7 @@ from granflow.model import (
     AmbientParams,
     PicardParams,
 )
+from granflow.physics.momentum_transport import MC_THETA, MINMOD_THETA
 from granflow.physics.transport import POSITIVITY_CFL
 
 MAX_CELLS = 4_000_000
@@ -210,11 +211,15 @@ class NumericsSection(Section):
         'viscosity at the pressure extrapolated to the wall: the basal yield stress is Z p_wall) or '
         '"centre" (at their centre pressure, half a cell of weight short); default: "wall" with '
         'surface = "indicator", else "centre" [-]')
+    momentum_theta: float = Field(
+        MC_THETA, ge=MINMOD_THETA, le=MC_THETA, description="slope limiter of the consistent "
+        "momentum transport's face values: 1 = minmod, 2 = monotonized central (default), 1.3 = "
+        "Basilisk's minmod2 [-]")
     interface_packing: bool = Field(True, description="closure at the local packing near the ambient [-]")
     consistent_gravity: bool = Field(True, description="energy-consistent gravity weighting [-]")
     gravity_blend_velocity: float | None = Field(
         None, gt=0, description="faces slower than this keep (a blend towards) the centred gravity "
-        "weight (default: eps Lz) [m s^-1]")
+        "weight (default: |g| dt with surface = \"indicator\", eps Lz with \"threshold\") [m s^-1]")
     isochoric_interface: int = Field(
         1, ge=0, le=INTERFACE_RADIUS, description="dense cells within this many cells of the "
         "ambient are isochoric (div u = 0, or free with p = 0) instead of following the "

@@ -18,8 +18,13 @@ Rudman (1998, Int. J. Numer. Meth. Fluids 28, 357) and Vaudor et al. (2017, Comp
   (the two x-face fluxes of a cell for a dual face at the cell centre, the two fluxes of the
   adjacent faces for a dual face at a node), so that the dual-cell mass obeys (1) *exactly*:
   ``div_dual F = cell_to_face(div F)`` (:func:`dual_mass_divergence`);
-* the transported velocity on a dual face is its upwind MUSCL-minmod value (second order where
-  smooth, first order at extrema and walls), by the sign of the dual mass flux.
+* the transported velocity on a dual face is its upwind MUSCL value (second order where
+  smooth, first order at extrema and walls), by the sign of the dual mass flux, with the
+  generalised minmod slope ``minmod(theta dq_-, (dq_- + dq_+)/2, theta dq_+)`` (van Leer 1979;
+  ``theta = 1`` minmod, ``theta = 2`` monotonized central, the default: TVD for ``1 <= theta
+  <= 2``; Basilisk's ``minmod2`` takes 1.3). The larger ``theta``, the less the upwinding
+  dissipates (validation/energy: the advection term of the dry 40 x 16 column is -5.1 % of the
+  released energy with minmod and -3.5 % with MC).
 
 With the momentum balance discretised as ``(m^{n+1} u^{n+1} - m^n u^n)/dt + rho_s A(F, u^n) =
 ...`` (:func:`momentum_flux_divergence` gives ``A``), the update is, for first-order face values,
@@ -39,19 +44,28 @@ from granflow.grid import Grid
 from granflow.physics.transport import flux_divergence
 
 HALF = 0.5
+MINMOD_THETA = 1.0
+"""``theta`` of the plain minmod slope (the most dissipative TVD limiter)."""
+MC_THETA = 2.0
+"""``theta`` of the monotonized-central slope, the default (the least dissipative of the
+generalised minmod family that stays TVD)."""
 
 
-def _minmod(a, b):
-    return np.where(a * b > 0.0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+def _limited(a, b, theta: float):
+    """Generalised minmod of the one-sided differences ``a``, ``b``:
+    ``minmod(theta a, (a + b)/2, theta b)`` (0 at an extremum)."""
+    mag = np.minimum(np.minimum(theta * np.abs(a), theta * np.abs(b)), HALF * np.abs(a + b))
+    return np.where(a * b > 0.0, np.sign(a) * mag, 0.0)
 
 
-def _slopes(q: np.ndarray, axis: int, periodic: bool) -> np.ndarray:
-    """Minmod slope of ``q`` along ``axis`` (zero at the first and last points unless periodic)."""
+def _slopes(q: np.ndarray, axis: int, periodic: bool, theta: float = MC_THETA) -> np.ndarray:
+    """Limited slope of ``q`` along ``axis`` (:func:`_limited`; zero at the first and last
+    points unless periodic)."""
     if periodic:
-        return _minmod(q - np.roll(q, 1, axis=axis), np.roll(q, -1, axis=axis) - q)
+        return _limited(q - np.roll(q, 1, axis=axis), np.roll(q, -1, axis=axis) - q, theta)
     d = np.diff(q, axis=axis)
     zero = np.zeros_like(np.take(d, [0], axis=axis))
-    return _minmod(np.concatenate([zero, d], axis=axis), np.concatenate([d, zero], axis=axis))
+    return _limited(np.concatenate([zero, d], axis=axis), np.concatenate([d, zero], axis=axis), theta)
 
 
 def _upwind(flux, lo, hi, s_lo, s_hi, second_order: bool):
@@ -62,7 +76,8 @@ def _upwind(flux, lo, hi, s_lo, s_hi, second_order: bool):
 
 
 def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
-                             second_order: bool = True, window=None) -> np.ndarray:
+                             second_order: bool = True, window=None,
+                             theta: float = MC_THETA) -> np.ndarray:
     """``A = div_dual(F (x) u~)`` at the velocity unknowns [m s^-2] (module docstring, eq. 1).
 
     Parameters
@@ -74,12 +89,14 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
     vel : ndarray, (n_unknowns,)
         Velocity transported [m s^-1].
     second_order : bool
-        MUSCL-minmod face values (default) or first-order upwind ones.
+        MUSCL face values (default) or first-order upwind ones.
     window : tuple of slice, optional
         Cell ranges (x, z) outside which the fluxes vanish with a margin of at least 3 cells
         (:func:`granflow.physics.material.material_window` of the transported material): ``A``
         is computed there only (0 elsewhere; the same values, bit for bit: every stencil of a
         face with a flux stays inside).
+    theta : float
+        Slope limiter parameter, 1 (minmod) to 2 (monotonized central, default); module docstring.
 
     Returns
     -------
@@ -88,14 +105,14 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
     """
     u, w = grid.unpack_velocity(vel)
     if window is None:
-        a_u, b = _divergence(u, w, fx, fz, grid.dx, grid.dz, grid.periodic_x, second_order)
+        a_u, b = _divergence(u, w, fx, fz, grid.dx, grid.dz, grid.periodic_x, second_order, theta)
         return np.concatenate([a_u.ravel(), b.ravel()])
     xs, zs = window
     per = grid.periodic_x
     xf = slice(0, grid.nx + 1) if per else slice(xs.start, xs.stop + 1)
     zf = slice(zs.start, zs.stop + 1)
     a_sub, b_sub = _divergence(u[xf, zs], w[xs, zf], fx[xf, zs], fz[xs, zf], grid.dx, grid.dz, per,
-                               second_order)
+                               second_order, theta)
     a_u = np.zeros((grid.nx if per else grid.nx - 1, grid.nz))
     b = np.zeros((grid.nx, grid.nz - 1))
     a_u[slice(0, grid.nx) if per else slice(xs.start, xs.stop - 1), zs] = a_sub
@@ -103,7 +120,7 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
     return np.concatenate([a_u.ravel(), b.ravel()])
 
 
-def _divergence(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: bool):
+def _divergence(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: bool, theta: float):
     """The x- and z-momentum parts of :func:`momentum_flux_divergence` on whole face arrays
     ``u (n+1, m)``, ``w (n, m+1)`` (walls at the array edges unless ``per`` in x); returns the
     interior-face arrays ``(a_u, b)``."""
@@ -112,7 +129,7 @@ def _divergence(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: boo
     # --- x-momentum (faces of u_columns) ---------------------------------------------------------
     # along x: dual faces at the cell centres, between x-faces c and c+1
     fcx = HALF * (fx + np.roll(fx, -1, axis=0)) if per else HALF * (fx[:-1] + fx[1:])
-    su = _slopes(u, 0, per)
+    su = _slopes(u, 0, per, theta)
     if per:
         val = _upwind(fcx, u, np.roll(u, -1, axis=0), su, np.roll(su, -1, axis=0), second_order)
         gx = fcx * val
@@ -126,17 +143,17 @@ def _divergence(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: boo
     right = fz if per else fz[1:]
     fnz = HALF * (left[:, 1:-1] + right[:, 1:-1])                # (n_xfaces, nz-1)
     uc = u if per else u[1:-1]
-    suz = _slopes(uc, 1, False)
+    suz = _slopes(uc, 1, False, theta)
     gz = fnz * _upwind(fnz, uc[:, :-1], uc[:, 1:], suz[:, :-1], suz[:, 1:], second_order)
     az = np.diff(np.pad(gz, ((0, 0), (1, 1))), axis=1) / dz
     a_u = ax + az
     # --- z-momentum (interior z-faces) -----------------------------------------------------------
     fcz = HALF * (fz[:, :-1] + fz[:, 1:])                       # dual faces at cell centres
-    swz = _slopes(w, 1, False)
+    swz = _slopes(w, 1, False, theta)
     gzw = fcz * _upwind(fcz, w[:, :-1], w[:, 1:], swz[:, :-1], swz[:, 1:], second_order)
     bz = np.diff(gzw, axis=1) / dz                              # faces 1 .. nz-1
     wi = w[:, 1:-1]
-    swx = _slopes(wi, 0, per)
+    swx = _slopes(wi, 0, per, theta)
     fex = HALF * (fx[:, :-1] + fx[:, 1:])                       # x-face k at w-row j (n, nz-1)
     if per:  # x-face k between cells k-1 (mod nx) and k
         gxw = fex * _upwind(fex, np.roll(wi, 1, axis=0), wi, np.roll(swx, 1, axis=0), swx, second_order)
