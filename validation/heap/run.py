@@ -31,7 +31,7 @@ the friction angle is at most 2 eps h_top); a heap held by the regularisation ha
 proportional to eps.
 
 Run:   python validation/heap/run.py [--quick]
-Time:  ~3.5 min on one core (``--quick``: 20 x 10 cells, DP 20 deg, eps = 5e-3 and 1e-3 to
+Time:  ~4.5 min on one core (``--quick``: 20 x 10 cells, DP 20 deg, eps = 5e-3 and 1e-3 to
        0.2 s, < 3 s, smoke test).
 """
 from __future__ import annotations
@@ -69,6 +69,11 @@ HEAPS = (("drucker_prager", 20.0), ("mu_i", 15.0), ("drucker_prager", 23.0))
 FINEST_ALL_EPS = ("drucker_prager", 20.0)     # the only heap run at every eps on the finest level
 COUNTER_SLOPES = (30.0, 35.0, 40.0)
 COUNTER_T_END = 0.3
+TALL = {"top": 0.16, "lx": 0.4, "lz": 0.2, "nx": 80}
+"""The tall heap of the counter-check: crest 16 cm in a 0.4 x 0.2 m box at the 5 mm cells of the
+40 x 20 level (its slope is 2.2 times as long: README, "the toe holds a short slope")."""
+TALL_SLOPES = (30.0, 23.0)
+"""Slopes of the tall heap: above delta (must flow) and below it (must creep)."""
 FLOW_SPEED = 1e-2                             # "flows" if v(0.3 s) > this [m/s] (module docstring)
 G = 9.81
 
@@ -78,14 +83,17 @@ def closure(name: str):
     return make_closure(name, material={"d": D, "rho_s": RHO_S, "phi_max": PHI_MAX}, **params)
 
 
-def crest(slope_deg: float) -> float:
+def crest(slope_deg: float, top: float | None = None) -> float:
+    """Crest height [m]: ``top`` if given, else TOP_STEEP (slopes > GENTLE_DEG) or TOP_GENTLE."""
+    if top is not None:
+        return top
     return TOP_STEEP if slope_deg > GENTLE_DEG else TOP_GENTLE
 
 
-def initial_packing(grid: Grid, slope_deg: float) -> np.ndarray:
+def initial_packing(grid: Grid, slope_deg: float, top: float | None = None) -> np.ndarray:
     """phi of the wedge: the covered fraction of phi_max in every cell (module docstring)."""
     X, Z = grid.cell_coords()
-    surface = np.maximum(crest(slope_deg) - X * math.tan(math.radians(slope_deg)), TAIL)
+    surface = np.maximum(crest(slope_deg, top) - X * math.tan(math.radians(slope_deg)), TAIL)
     return PHI_MAX * np.clip((surface - (Z - 0.5 * grid.dz)) / grid.dz, 0.0, 1.0)
 
 
@@ -95,9 +103,11 @@ def deposit_height(grid: Grid, phi) -> np.ndarray:
 
 
 def run(resolution: int, quick: bool = False, name: str = "drucker_prager", slope_deg: float = 20.0,
-        eps: float = EPS[0], t_end: float | None = None, dt_max: float = DT_MAX, lz: float = LZ) -> dict:
+        eps: float = EPS[0], t_end: float | None = None, dt_max: float = DT_MAX, lz: float = LZ,
+        lx: float = LX, top: float | None = None) -> dict:
     """One heap: ``resolution`` cells along x (square cells), to ``t_end`` (default T_END, or
-    QUICK_T_END with ``quick``).
+    QUICK_T_END with ``quick``), in an ``lx`` x ``lz`` box with crest height ``top`` (default
+    :func:`crest`; the TALL heap of the counter-check: :data:`TALL`).
 
     Returns
     -------
@@ -109,10 +119,10 @@ def run(resolution: int, quick: bool = False, name: str = "drucker_prager", slop
     """
     if t_end is None:
         t_end = QUICK_T_END if quick else T_END
-    nz = round(resolution * lz / LX)
-    grid = Grid(nx=resolution, nz=nz, Lx=LX, Lz=lz)
+    nz = round(resolution * lz / lx)
+    grid = Grid(nx=resolution, nz=nz, Lx=lx, Lz=lz)
     model = Model(grid, closure(name), eps=eps)
-    phi0 = initial_packing(grid, slope_deg)
+    phi0 = initial_packing(grid, slope_deg, top)
     sim = Simulation(model, model.initial_state(phi0), stop_time=t_end, dt_max=dt_max)
     ts, vs = [], []
 
@@ -135,7 +145,7 @@ def run(resolution: int, quick: bool = False, name: str = "drucker_prager", slop
     return {"name": name, "slope_deg": slope_deg, "eps": eps, "nx": resolution, "nz": nz, "lz": lz,
             "dt_max": dt_max, "t": t, "v": v, "v_end": v_end,
             "growth": v_end / v[half] if v[half] > 0 else math.nan,
-            "creep_ratio": v_end / (eps * crest(slope_deg)),
+            "creep_ratio": v_end / (eps * crest(slope_deg, top)),
             "dh": float(np.max(np.abs(deposit_height(grid, sim.state.phi) - deposit_height(grid, phi0)))),
             "travel": float(np.trapezoid(v, t)),
             "accel": float((v[-1] - v[half]) / (t[-1] - t[half])),
@@ -270,6 +280,11 @@ def main(argv=None) -> None:
     print(rest_table(checks))
     print("\nCounter-check above the friction angle (T = 0.3 s):")
     print(counter_table(counter))
+    tall = [run(TALL["nx"], slope_deg=slope, eps=EPS[0], t_end=COUNTER_T_END, lz=TALL["lz"],
+                lx=TALL["lx"], top=TALL["top"]) for slope in TALL_SLOPES]
+    print(f"\nTall heap (crest {TALL['top']} m, box {TALL['lx']} x {TALL['lz']} m, the 5 mm cells of "
+          f"{LEVELS[1]} x {LEVELS[1] // 2}; T = 0.3 s):")
+    print(counter_table(tall))
     print(f"\nwall {time.perf_counter() - t0:.0f} s")
     print(f"figure: {figure(groups, counter)}")
 
