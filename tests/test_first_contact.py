@@ -342,11 +342,11 @@ def test_ctrl_c_during_start_up_exits_130(monkeypatch, capsys):
 
 
 def test_vtk_first_edge_is_exactly_zero():
-    from granflow.output.vtk import _edges
+    from granflow.output.vtk import cell_edges
 
     dx = 0.4 / 40
     centres = (np.arange(40) + 0.5) * dx
-    edges = _edges(centres)
+    edges = cell_edges(centres)
     assert edges[0] == 0.0 and edges[-1] == pytest.approx(0.4, rel=1e-12)
     np.testing.assert_allclose(np.diff(edges), dx, rtol=1e-9)
 
@@ -425,11 +425,22 @@ def test_sheared_layer_figure_and_static_front_figure(tmp_path, capsys, monkeypa
     lines = _lines_by_label(saved["relaxation.png"].axes[0])
     np.testing.assert_allclose(lines["granflow"].get_ydata(), rec["phi"], rtol=1e-12)
     np.testing.assert_allclose(lines[s["case_diagnostics"]["reference"]].get_ydata(), rec["reference"], rtol=1e-12)
+    assert "front.png" not in saved  # a fixed front and no motion: nothing to draw
     saved.clear()
-    run(capsys, "static_layer.toml", tmp_path / "st", "time.stop_time=0.01")
-    ke_axis = saved["front.png"].axes[1]
-    assert ke_axis.get_lines() == []  # no flat line at 1e-30 J/m
-    assert any(t.get_gid() == "at_rest" and "at rest" in t.get_text() for t in ke_axis.texts)
+    s, _, _ = run(capsys, "static_layer.toml", tmp_path / "st", "time.stop_time=0.01")
+    assert "front.png" not in saved and s["figures"]["files"] == ["snapshots.png", "pressure.png"]
+    prof = s["case_diagnostics"]["pressure_profile"]
+    left, right = saved["pressure.png"].axes
+    lines = _lines_by_label(left)
+    np.testing.assert_allclose(lines["granflow (mean over x)"].get_ydata(), prof["z_m"], rtol=1e-12)
+    np.testing.assert_allclose(lines["granflow (mean over x)"].get_xdata(), prof["p_Pa"], rtol=1e-12)
+    ref = next(ln for k, ln in lines.items() if k.startswith("lithostatic"))
+    np.testing.assert_allclose(ref.get_xdata(), prof["reference_Pa"], rtol=1e-12)
+    full = np.asarray(prof["full"])
+    assert full.size == 7 and full.all()  # H = 0.07 m on 1 cm cells: 7 whole rows, none above
+    np.testing.assert_allclose(np.asarray(prof["p_Pa"])[full], np.asarray(prof["reference_Pa"])[full],
+                               rtol=1e-9)
+    assert left.get_xlabel() == "granular pressure p [Pa]" and left.get_ylabel() == "z [m]"
 
 
 def test_dispersion_plot_labels_fit_in_the_figure(tmp_path, monkeypatch):

@@ -449,10 +449,10 @@ class CaseRun:
     def _figures(self) -> dict[str, Any]:
         """Write the run figures; a plotting problem is recorded, never fatal to the run."""
         try:
-            from granflow import plotting
+            from granflow import case_figures, plotting
 
             paths = plotting.run_figures(self.output_path, self.directory)
-            paths += plotting.case_figures(self.output_path, self._summary_for_figures, self.directory)
+            paths += case_figures.case_figures(self.output_path, self._summary_for_figures, self.directory)
             return {"files": [p.name for p in paths]}
         except Exception as err:  # noqa: BLE001 - figures must not lose a finished run
             return {"error": f"{type(err).__name__}: {err}"}
