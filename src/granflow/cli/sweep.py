@@ -29,7 +29,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from granflow.cli import ExitCode
+from granflow.cli import INTERRUPTED, ExitCode
 from granflow.errors import GranflowInputError
 
 SWEEP_TABLE = "sweep"
@@ -58,7 +58,9 @@ EXIT_CODES_HELP = f"""exit codes:
        file, DIR holding another sweep or a foreign sweep.json, an unwritable --out; also an
        unreachable --scheduler (after Dask's connect timeout, 30 s by default); nothing written
   {ExitCode.INTERNAL:<4d} internal error (a bug): traceback printed
-  Ctrl-C stops the sweep (exit 1); run the same command again to finish it."""
+  {INTERRUPTED:<4d} interrupted (Ctrl-C): the running members stop after their current step (a
+       second Ctrl-C stops waiting), no other member starts; run the same command again to
+       finish the sweep (the interrupted members run again from their start)."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -275,6 +277,11 @@ class SweepDisplay:
 
         runout = p.summary.get("runout_m")
         what = f": run-out {_runout(str(runout))} m" if runout not in (None, "") else ""
+        if p.summary.get("still_moving"):
+            what += " (still moving: not final)"
+        not_converged = p.summary.get("picard.not_converged_steps") or 0
+        if not_converged:  # as on the end-of-run line of granflow run
+            what += f"; Picard not converged in {not_converged} of {p.summary.get('steps')} steps"
         return (f"{p.member_id} {p.status} ({p.done}/{p.total} done, "
                 f"{_duration(p.elapsed_s)} elapsed){what}")
 
@@ -315,12 +322,13 @@ class SweepDisplay:
     def close(self) -> None:
         if self._rich is not None:
             self._rich.stop()
+            self._rich = None
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``granflow sweep``; returns 0 if every member completed, 1 if any failed."""
     from granflow.cases.sweep_member import run_member
-    from granflow.sweep import STATUS_FAILED, run_sweep
+    from granflow.sweep import STATUS_FAILED, SweepInterrupted, run_sweep
 
     if args.workers is not None and args.scheduler is not None:
         raise GranflowInputError("--workers sets the size of the local cluster; it cannot be "
@@ -353,6 +361,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except OSError as err:  # e.g. the scheduler cannot be reached, out not writable
         hint = f" (--scheduler {args.scheduler})" if args.scheduler else ""
         raise GranflowInputError(f"sweep{hint}: {type(err).__name__}: {err}") from None
+    except SweepInterrupted as stop:
+        display.close()
+        how = ("not waited for (second Ctrl-C)" if stop.abandoned
+               else "stopped after their current step")
+        print(f"granflow: sweep interrupted (Ctrl-C): {stop.done} of {stop.total} member(s) done, the "
+              f"running ones {how}; run the same command again to finish it", file=sys.stderr)
+        return INTERRUPTED
     finally:
         display.close()
     with open(table, newline="", encoding="utf-8") as fh:
