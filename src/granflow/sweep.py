@@ -18,6 +18,7 @@ Dask (``pip install granflow[sweep]``) is imported only by :func:`run_sweep`.
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import io
@@ -368,6 +369,26 @@ def dask_setup(worker) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+@contextlib.contextmanager
+def _sigint_ignored():
+    """Ignore SIGINT in this process while the local cluster starts: the worker processes
+    spawned meanwhile inherit the disposition from birth (before :func:`dask_setup` runs, a Ctrl-C
+    killed them mid-import with pages of tracebacks), and the cluster is not left half started
+    (distributed's atexit close then failed: "AssertionError: Status.init"). A Ctrl-C in these
+    few seconds is lost; the next one stops the sweep."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _close_cluster(cluster, timeout: float = WORKER_CLOSE_TIMEOUT_S) -> None:
     """Close the local cluster's workers with a generous timeout, then the cluster: no
     "Worker process still alive ... killing" warnings."""
@@ -490,9 +511,10 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
     try:
         if todo:  # connect first: an unreachable scheduler must not leave files behind
             if scheduler is None:
-                cluster = LocalCluster(n_workers=workers or DEFAULT_WORKERS, threads_per_worker=1,
-                                       processes=True, dashboard_address=LOCAL_DASHBOARD,
-                                       preload=[__name__])  # dask_setup: workers ignore Ctrl-C
+                with _sigint_ignored():  # and dask_setup: the workers ignore Ctrl-C
+                    cluster = LocalCluster(n_workers=workers or DEFAULT_WORKERS, threads_per_worker=1,
+                                           processes=True, dashboard_address=LOCAL_DASHBOARD,
+                                           preload=[__name__])
             client = Client(cluster if cluster is not None else scheduler)
         if started is not None:
             started()
