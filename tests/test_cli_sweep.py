@@ -417,3 +417,32 @@ def test_ctrl_c_on_the_terminal_stops_the_sweep_cleanly(tmp_path):
     assert len(stopped) == 2 and all("the sweep was stopped" in e for e in stopped)  # the running two
     queued = [d for d in out.glob("m000*") if not (d / "error.json").exists()]
     assert len(queued) == 1 and sorted(p.name for p in queued[0].iterdir()) == ["member.json"]  # not started
+
+
+def test_sweep_display_on_a_terminal_without_rich_rewrites_one_line(monkeypatch):
+    """Without rich (not a dependency), a terminal gets the running line rewritten in place every
+    report (it printed one every 10 s), the finished members' lines kept above it."""
+    import io
+    import sys as _sys
+
+    from granflow.cli.sweep import ERASE_LINE, SweepDisplay
+    from granflow.sweep import SweepProgress
+
+    monkeypatch.setitem(_sys.modules, "rich", None)  # import rich -> ImportError
+    monkeypatch.setitem(_sys.modules, "rich.console", None)
+    stream = io.StringIO()
+    display = SweepDisplay(stream, tty=True)
+    running = {"m0000": {"t": 0.1, "stop_time": 0.5}}
+    display(SweepProgress(None, None, 0, 2, 1.0, running, {}))
+    display(SweepProgress(None, None, 0, 2, 2.0, {"m0000": {"t": 0.2, "stop_time": 0.5}}, {}))
+    display(SweepProgress("m0000", "ok", 1, 2, 3.0, {}, {"runout_m": 0.1}))
+    display(SweepProgress("m0001", "ok", 2, 2, 4.0, {}, {"runout_m": 0.2}))
+    display.close()
+    text = stream.getvalue()
+    assert text.count("\n") == 2  # only the finished members' lines stay
+    frames = [f.replace(ERASE_LINE, "") for f in text.split("\r") if f.replace(ERASE_LINE, "")]
+    assert frames == ["granflow: sweep: 0/2 done, 0:00:01 elapsed; running: m0000 t = 0.1/0.5",
+                      "granflow: sweep: 0/2 done, 0:00:02 elapsed; running: m0000 t = 0.2/0.5",
+                      "granflow: sweep: m0000 ok (1/2 done, 0:00:03 elapsed): run-out 0.1 m\n",
+                      "granflow: sweep: 1/2 done, 0:00:03 elapsed; starting the next member(s)",
+                      "granflow: sweep: m0001 ok (2/2 done, 0:00:04 elapsed): run-out 0.2 m\n"]

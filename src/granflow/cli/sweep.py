@@ -47,6 +47,8 @@ MAX_MEMBER_ERRORS = 3
 """Invalid members named in the error message (the count of the others is given)."""
 KEY_SEP = "."
 COLUMN_GAP = "  "
+ERASE_LINE = "\x1b[K"
+"""ANSI: erase to the end of the line (the in-place progress line on a terminal)."""
 
 EXIT_CODES_HELP = f"""exit codes:
   {ExitCode.OK:<4d} every member completed (now or in an earlier invocation)
@@ -248,9 +250,11 @@ def format_table(rows: list[dict[str, str]], override_keys: list[str]) -> list[s
 
 class SweepDisplay:
     """Progress of a sweep on ``stream``: on a terminal with ``rich``, a bar per running member
-    (its simulated time against its stop time) and one overall (members done); otherwise a line
-    when a member finishes (``sweep: m0001 ok (2/3 done, 0:01:10 elapsed): run-out ...``) and, every
-    :data:`LOG_INTERVAL_S`, the running members' simulated times."""
+    (its simulated time against its stop time) and one overall (members done); on a terminal
+    without it, a line when a member finishes (``sweep: m0001 ok (2/3 done, 0:01:10 elapsed):
+    run-out ...``) below one line of the running members' simulated times, rewritten every
+    second; otherwise (a log file) the finished members' lines and, every :data:`LOG_INTERVAL_S`,
+    the running members' times."""
 
     LOG_INTERVAL_S = 10.0
 
@@ -260,6 +264,7 @@ class SweepDisplay:
         self._rich = None
         self._tasks: dict[str, Any] = {}
         self._last = 0.0
+        self._open_line = False
         if self.tty:
             try:
                 from rich.console import Console
@@ -292,8 +297,9 @@ class SweepDisplay:
         parts = [f"{mid} t = {r.get('t', 0):.3g}/{r.get('stop_time', 0):.3g}"
                  + (" (compiling kernels, once)" if r.get("warming_up") else "")
                  for mid, r in sorted(p.running.items())]
+        idle = "; starting the workers" if p.done == 0 else "; starting the next member(s)"
         return (f"{p.done}/{p.total} done, {_duration(p.elapsed_s)} elapsed"
-                + (f"; running: {', '.join(parts)}" if parts else "; starting the workers"))
+                + (f"; running: {', '.join(parts)}" if parts else idle))
 
     def __call__(self, p) -> None:
         import time
@@ -310,7 +316,15 @@ class SweepDisplay:
                                   description=f"{p.member_id} {p.status}")
             return
         now = time.monotonic()
-        if p.member_id is not None:
+        if self.tty:  # a terminal without rich: the running line rewritten in place
+            head = "\r" + ERASE_LINE
+            if p.member_id is not None:
+                self.stream.write(f"{head}granflow: sweep: {self.member_line(p)}\n")
+                self._open_line = False
+            if p.done < p.total:
+                self.stream.write(f"{head}granflow: sweep: {self.running_line(p)}")
+                self._open_line = True
+        elif p.member_id is not None:
             self.stream.write(f"granflow: sweep: {self.member_line(p)}\n")
         elif now - self._last >= self.LOG_INTERVAL_S:
             self.stream.write(f"granflow: sweep: {self.running_line(p)}\n")
@@ -323,6 +337,10 @@ class SweepDisplay:
         if self._rich is not None:
             self._rich.stop()
             self._rich = None
+        if self._open_line:  # leave the terminal on a fresh line
+            self.stream.write("\r" + ERASE_LINE)
+            self.stream.flush()
+            self._open_line = False
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
