@@ -446,3 +446,61 @@ def test_sweep_display_on_a_terminal_without_rich_rewrites_one_line(monkeypatch)
                       "granflow: sweep: m0000 ok (1/2 done, 0:00:03 elapsed): run-out 0.1 m\n",
                       "granflow: sweep: 1/2 done, 0:00:03 elapsed; starting the next member(s)",
                       "granflow: sweep: m0001 ok (2/2 done, 0:00:04 elapsed): run-out 0.2 m\n"]
+
+
+def test_sweep_display_with_rich(monkeypatch):
+    """The rich branch (rich is optional and not installed in CI) against a stand-in with the
+    rich API it uses: a bar per member (its simulated time, "compiling kernels, once" while it
+    compiles), the overall bar, the finished member's line printed above the bars."""
+    import io
+    import sys as _sys
+    import types
+    from types import SimpleNamespace
+
+    from granflow.cli.sweep import SweepDisplay
+    from granflow.sweep import SweepProgress
+
+    printed, state = [], {"started": False, "stopped": False}
+
+    class Progress:
+        def __init__(self, console=None, transient=False):
+            self.console, self.tasks = console, []
+
+        def add_task(self, description, total=None):
+            self.tasks.append(SimpleNamespace(id=len(self.tasks), description=description, total=total,
+                                              completed=0.0))
+            return self.tasks[-1].id
+
+        def update(self, task, **kw):
+            for k, v in kw.items():
+                setattr(self.tasks[task], k, v)
+
+        def start(self):
+            state["started"] = True
+
+        def stop(self):
+            state["stopped"] = True
+
+    class Console:
+        def __init__(self, file=None):
+            self.file = file
+
+        def print(self, text, **kw):
+            printed.append(text)
+
+    rich = types.ModuleType("rich")
+    monkeypatch.setitem(_sys.modules, "rich", rich)
+    monkeypatch.setitem(_sys.modules, "rich.console", SimpleNamespace(Console=Console))
+    monkeypatch.setitem(_sys.modules, "rich.progress", SimpleNamespace(Progress=Progress))
+    display = SweepDisplay(io.StringIO(), tty=True)
+    bars = display._rich.tasks
+    display(SweepProgress(None, None, 0, 2, 1.0, {"m0000": {"t": 0.0, "stop_time": 0.5, "warming_up": True}}, {}))
+    assert bars[1].description == "m0000 (compiling kernels, once)" and bars[1].total == 0.5
+    display(SweepProgress(None, None, 0, 2, 2.0, {"m0000": {"t": 0.25, "stop_time": 0.5}}, {}))
+    assert bars[1].description == "m0000" and bars[1].completed == 0.25
+    display(SweepProgress("m0000", "ok", 1, 2, 3.0, {}, {"runout_m": 0.1}))
+    assert bars[1].completed == 0.5 and bars[1].description == "m0000 ok"
+    assert bars[0].completed == 1 and bars[0].total == 2
+    assert printed == ["granflow: sweep: m0000 ok (1/2 done, 0:00:03 elapsed): run-out 0.1 m"]
+    display.close()
+    assert state == {"started": True, "stopped": True}

@@ -309,11 +309,15 @@ class SweepDisplay:
             for mid, r in p.running.items():
                 if mid not in self._tasks:
                     self._tasks[mid] = self._rich.add_task(mid, total=r.get("stop_time") or None)
-                self._rich.update(self._tasks[mid], completed=r.get("t", 0.0))
-            if p.member_id is not None and p.member_id in self._tasks:
-                task = self._tasks[p.member_id]
-                self._rich.update(task, completed=self._rich.tasks[task].total or 1.0,
-                                  description=f"{p.member_id} {p.status}")
+                self._rich.update(self._tasks[mid], completed=r.get("t", 0.0),
+                                  description=mid + (" (compiling kernels, once)" if r.get("warming_up") else ""))
+            if p.member_id is not None:
+                if p.member_id in self._tasks:
+                    task = self._tasks[p.member_id]
+                    total = next((t.total for t in self._rich.tasks if t.id == task), None)
+                    self._rich.update(task, completed=total or 1.0, description=f"{p.member_id} {p.status}")
+                self._rich.console.print(f"granflow: sweep: {self.member_line(p)}", markup=False,
+                                         highlight=False)  # the run-out, warnings: kept above the bars
             return
         now = time.monotonic()
         if self.tty:  # a terminal without rich: the running line rewritten in place
