@@ -329,3 +329,178 @@ def test_sweep_display_lines():
     assert lines[0] == ("granflow: sweep: 0/3 done, 0:00:12 elapsed; running: m0000 t = 0.1/0.5, "
                         "m0001 t = 0/0.5 (compiling kernels, once)")
     assert lines[1] == "granflow: sweep: m0000 ok (1/3 done, 0:01:10 elapsed): run-out 0.1234 m"
+    display(SweepProgress("m0001", "ok", 2, 3, 80.0, {}, {"runout_m": 0.2, "still_moving": True, "steps": 728,
+                                                          "picard.not_converged_steps": 136}))
+    assert stream.getvalue().splitlines()[2] == (
+        "granflow: sweep: m0001 ok (2/3 done, 0:01:20 elapsed): run-out 0.2 m (still moving: not final); "
+        "Picard not converged in 136 of 728 steps")
+
+
+# ------------------------------------------------------------------------------ Ctrl-C (issue 16 item 7)
+LONG_SWEEP = """
+[sweep]
+base = "case.toml"
+mode = "grid"
+
+[parameters]
+"setup.b0" = { values = [0.0, 0.5, 0.9] }
+"""
+
+
+def test_member_progress_stops_the_run_when_the_sweep_is_stopped(tmp_path):
+    from types import SimpleNamespace
+
+    from granflow.cases.sweep_member import MemberProgress
+    from granflow.sweep import STOP_FILE, run_member_task
+
+    asked = []
+    member = tmp_path / "m0000"
+    member.mkdir()
+    progress = MemberProgress(member, request_stop=asked.append)
+    p = SimpleNamespace(t=0.1, stop_time=1.0, step=3, wall_s=1.0, warming_up=False)
+    progress(p)
+    assert asked == [] and json.loads((member / "progress.json").read_text())["step"] == 3
+    (tmp_path / STOP_FILE).write_text("Ctrl-C\n")
+    progress._last = -float("inf")
+    progress(p)
+    assert asked == ["the sweep was stopped (Ctrl-C)"]
+
+    def never(config, outdir):  # a queued member must not start once the sweep is stopped
+        raise AssertionError("started")
+
+    status, record = run_member_task(never, {}, str(tmp_path / "m0001"))
+    assert status == "failed" and "not run: the sweep was interrupted" in record["error"]
+    assert not (tmp_path / "m0001").exists()
+
+
+def test_ctrl_c_on_the_terminal_stops_the_sweep_cleanly(tmp_path):
+    """SIGINT to the whole foreground process group, as a terminal's Ctrl-C sends it: the workers
+    ignore it (they used to die with pages of tracebacks, and 'Worker process still alive ...
+    killing' 48 s later); the running members stop after their step, the queued one does not
+    start; exit 130 within seconds, one line saying how to finish (re-running is the resume test
+    above: members without summary.json run again)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    pytest.importorskip("distributed")
+    case = TINY_CASE.replace("stop_time = 0.02", "stop_time = 50.0")  # minutes: stopped by Ctrl-C
+    sweep = write_sweep(tmp_path, LONG_SWEEP, case)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-c", "import sys; from granflow.cli import main; sys.exit(main(sys.argv[1:]))",
+           "sweep", str(sweep), "--out", str(out), "--workers", "2"]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120.0
+    while not list(out.glob("m000*/progress.json")) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.2)  # wait until members run
+    assert list(out.glob("m000*/progress.json")), ("no member started", proc.poll(), proc.stderr.read()
+                                                   if proc.poll() is not None else "")
+    sent = time.monotonic()
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60.0)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    took = time.monotonic() - sent
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "still alive" not in err and "CancelledError" not in err, err
+    assert took < 30.0, took
+    assert "granflow: sweep interrupted (Ctrl-C): 0 of 3 member(s) done" in err
+    assert "run the same command again" in err
+    stopped = [json.loads(p.read_text())["error"] for p in out.glob("m000*/error.json")]
+    assert not list(out.glob("m000*/summary.json"))
+    assert len(stopped) == 2 and all("the sweep was stopped" in e for e in stopped)  # the running two
+    queued = [d for d in out.glob("m000*") if not (d / "error.json").exists()]
+    assert len(queued) == 1 and sorted(p.name for p in queued[0].iterdir()) == ["member.json"]  # not started
+
+
+def test_sweep_display_on_a_terminal_without_rich_rewrites_one_line(monkeypatch):
+    """Without rich (not a dependency), a terminal gets the running line rewritten in place every
+    report (it printed one every 10 s), the finished members' lines kept above it."""
+    import io
+    import sys as _sys
+
+    from granflow.cli.sweep import ERASE_LINE, SweepDisplay
+    from granflow.sweep import SweepProgress
+
+    monkeypatch.setitem(_sys.modules, "rich", None)  # import rich -> ImportError
+    monkeypatch.setitem(_sys.modules, "rich.console", None)
+    stream = io.StringIO()
+    display = SweepDisplay(stream, tty=True)
+    running = {"m0000": {"t": 0.1, "stop_time": 0.5}}
+    display(SweepProgress(None, None, 0, 2, 1.0, running, {}))
+    display(SweepProgress(None, None, 0, 2, 2.0, {"m0000": {"t": 0.2, "stop_time": 0.5}}, {}))
+    display(SweepProgress("m0000", "ok", 1, 2, 3.0, {}, {"runout_m": 0.1}))
+    display(SweepProgress("m0001", "ok", 2, 2, 4.0, {}, {"runout_m": 0.2}))
+    display.close()
+    text = stream.getvalue()
+    assert text.count("\n") == 2  # only the finished members' lines stay
+    frames = [f.replace(ERASE_LINE, "") for f in text.split("\r") if f.replace(ERASE_LINE, "")]
+    assert frames == ["granflow: sweep: 0/2 done, 0:00:01 elapsed; running: m0000 t = 0.1/0.5",
+                      "granflow: sweep: 0/2 done, 0:00:02 elapsed; running: m0000 t = 0.2/0.5",
+                      "granflow: sweep: m0000 ok (1/2 done, 0:00:03 elapsed): run-out 0.1 m\n",
+                      "granflow: sweep: 1/2 done, 0:00:03 elapsed; starting the next member(s)",
+                      "granflow: sweep: m0001 ok (2/2 done, 0:00:04 elapsed): run-out 0.2 m\n"]
+
+
+def test_sweep_display_with_rich(monkeypatch):
+    """The rich branch (rich is optional and not installed in CI) against a stand-in with the
+    rich API it uses: a bar per member (its simulated time, "compiling kernels, once" while it
+    compiles), the overall bar, the finished member's line printed above the bars."""
+    import io
+    import sys as _sys
+    import types
+    from types import SimpleNamespace
+
+    from granflow.cli.sweep import SweepDisplay
+    from granflow.sweep import SweepProgress
+
+    printed, state = [], {"started": False, "stopped": False}
+
+    class Progress:
+        def __init__(self, console=None, transient=False):
+            self.console, self.tasks = console, []
+
+        def add_task(self, description, total=None):
+            self.tasks.append(SimpleNamespace(id=len(self.tasks), description=description, total=total,
+                                              completed=0.0))
+            return self.tasks[-1].id
+
+        def update(self, task, **kw):
+            for k, v in kw.items():
+                setattr(self.tasks[task], k, v)
+
+        def start(self):
+            state["started"] = True
+
+        def stop(self):
+            state["stopped"] = True
+
+    class Console:
+        def __init__(self, file=None):
+            self.file = file
+
+        def print(self, text, **kw):
+            printed.append(text)
+
+    rich = types.ModuleType("rich")
+    monkeypatch.setitem(_sys.modules, "rich", rich)
+    monkeypatch.setitem(_sys.modules, "rich.console", SimpleNamespace(Console=Console))
+    monkeypatch.setitem(_sys.modules, "rich.progress", SimpleNamespace(Progress=Progress))
+    display = SweepDisplay(io.StringIO(), tty=True)
+    bars = display._rich.tasks
+    display(SweepProgress(None, None, 0, 2, 1.0, {"m0000": {"t": 0.0, "stop_time": 0.5, "warming_up": True}}, {}))
+    assert bars[1].description == "m0000 (compiling kernels, once)" and bars[1].total == 0.5
+    display(SweepProgress(None, None, 0, 2, 2.0, {"m0000": {"t": 0.25, "stop_time": 0.5}}, {}))
+    assert bars[1].description == "m0000" and bars[1].completed == 0.25
+    display(SweepProgress("m0000", "ok", 1, 2, 3.0, {}, {"runout_m": 0.1}))
+    assert bars[1].completed == 0.5 and bars[1].description == "m0000 ok"
+    assert bars[0].completed == 1 and bars[0].total == 2
+    assert printed == ["granflow: sweep: m0000 ok (1/2 done, 0:00:03 elapsed): run-out 0.1 m"]
+    display.close()
+    assert state == {"started": True, "stopped": True}

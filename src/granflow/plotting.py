@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from granflow.figure_layout import save_figure
+
 #: Pressure [Pa] at which closure curves and maps are drawn unless told otherwise.
 DEFAULT_PRESSURE = 1000.0
 
@@ -17,6 +19,23 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+LINE_FIGURE_IN = (7.0, 4.0)
+"""Size [in] of the figures of time series (``front.png``, ``probes.png``)."""
+SNAPSHOT_PANEL_IN = (4.6, 2.4)
+"""Width and height [in] of a panel of ``snapshots.png``; a box drawn to scale that is taller
+than wide gets narrower panels (its height ratio, plus :data:`SNAPSHOT_BAR_IN` for the colour
+bar, at least :data:`SNAPSHOT_MIN_WIDTH_IN`)."""
+SNAPSHOT_BAR_IN, SNAPSHOT_MIN_WIDTH_IN, SNAPSHOT_TITLE_IN = 1.6, 2.4, 0.6
+SNAPSHOT_MIN_FIGURE_IN = 7.2
+"""Least width [in] of ``snapshots.png``: its one-line suptitle fits."""
+NOTE_XY = (0.02, 0.02)
+"""Position (axes fraction) of the notes of ``front.png``."""
+THEORY_DPI = 110
+"""Resolution of the closure and stability figures (``granflow check|stability ... --plot``)."""
+
+
 
 
 def closure_curves(closure, ax_z, ax_f, phis=None, p: float = DEFAULT_PRESSURE, ratio=(1e-2, 1e2)):
@@ -56,7 +75,8 @@ def condition_map_axes(closure, ax, p: float = DEFAULT_PRESSURE, n: int = 120):
     cmap = _pyplot().get_cmap("tab10", len(names) + 1)
     mesh = ax.pcolormesh(I, phi, code, cmap=cmap, vmin=-0.5, vmax=len(names) + 0.5, shading="auto")
     ax.set_xscale("log")
-    ax.plot(I, closure.equilibrium.phi_eq(I), "k--", lw=1, label="phi_eq(I)")
+    phi_eq = np.asarray(closure.equilibrium.phi_eq(I), dtype=float)
+    ax.plot(I, np.where(phi_eq >= phi[0], phi_eq, np.nan), "k--", lw=1, label="phi_eq(I)")  # in the map
     ax.set_xlabel("I")
     ax.set_ylabel("phi")
     ax.set_ylim(phi[0], phi_max)
@@ -73,9 +93,7 @@ def closure_overview(closure, path: str | Path, p: float = DEFAULT_PRESSURE):
     closure_curves(closure, axes[0], axes[1], p=p)
     condition_map_axes(closure, axes[2], p=p)
     fig.suptitle(f"{closure.name} {closure.parameters()}", fontsize="small")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, path, THEORY_DPI)
 
 
 def growth_figure(lead, curve, path: str | Path, title: str = ""):
@@ -103,9 +121,7 @@ def growth_figure(lead, curve, path: str | Path, title: str = ""):
     b.set_ylabel("growth rate max Re lambda [1/s]")
     b.legend(fontsize="small")
     fig.suptitle(title, fontsize="small")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, path, THEORY_DPI)
 
 
 #: Relative speed levels of the snapshot contours (fractions of the record's largest grain speed).
@@ -192,75 +208,13 @@ def equal_aspect(ds) -> bool:
     return 1.0 / MAX_EQUAL_ASPECT <= ratio <= MAX_EQUAL_ASPECT
 
 
-def case_figures(nc_path: str | Path, summary: dict, outdir: str | Path) -> list[Path]:
-    """The figure a referee asks of each verification case, from ``summary.json`` (and
-    output.nc): ``basal_pressure.png`` (defluidisation_column: basal p_f against the Fourier
-    series), ``profile.png`` (inclined_layer: u(z) against Bagnold, u_s(t)), ``relaxation.png``
-    (sheared_layer: phi(t) against its reference). Other cases: none."""
-    case = summary.get("case")
-    d = summary.get("case_diagnostics") or {}
-    outdir = Path(outdir)
-    plt = _pyplot()
-    if case == "defluidisation_column" and d.get("basal_record"):
-        rec = d["basal_record"]
-        t = np.asarray(rec["t_s"], dtype=float)
-        pf, series = np.asarray(rec["p_f_Pa"], dtype=float), np.asarray(rec["series_Pa"], dtype=float)
-        fig, (a, b) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, constrained_layout=True)
-        a.plot(t, series, "k-", label="Fourier series (rigid column)")
-        a.plot(t, pf, "o", color="tab:blue", ms=4, label=f"granflow, bottom cell (z = {rec['z_m']:.3g} m)")
-        a.set_ylabel("basal pore pressure p_f [Pa]")
-        a.legend(fontsize="small")
-        a.set_title(f"defluidisation: half-life {d.get('half_life_s') or float('nan'):.4g} s, series "
-                    f"{d.get('series_half_life_s') or float('nan'):.4g} s (tau_1 = {d.get('tau_1_s', float('nan')):.3g} s)",
-                    fontsize="small")
-        amp = float(d.get("p_f0_base_Pa") or 1.0)
-        b.plot(t, (pf - series) / amp, "o-", color="tab:blue", ms=3)
-        b.axhline(0.0, color="k", lw=0.5)
-        b.set_xlabel("t [s]")
-        b.set_ylabel("(p_f - series) / p_f0 [-]")
-        path = outdir / "basal_pressure.png"
-    elif case == "inclined_layer" and d.get("u_surface_record"):
-        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-        import xarray as xr
+def mesh_xz(ds) -> tuple[np.ndarray, np.ndarray]:
+    """The cell edges (x, z) of a run for ``pcolormesh``, with an exact 0 at the origin: the
+    edges matplotlib derives from the centres start at 8.7e-19, and its tick locator then
+    crowded a narrow axis ("0.00.010.0203")."""
+    from granflow.output.vtk import cell_edges
 
-        with xr.open_dataset(nc_path) as ds:
-            u = run_field(ds.load(), "u").isel(time=-1).mean("x", skipna=True)
-            z = ds["z"].values
-        a.plot(u.values, z, "o", color="tab:blue", ms=4, label="granflow (grain cells, mean over x)")
-        if d.get("u_surface_bagnold_m_s") is not None:
-            h = float(d["h_m"])
-            zz = np.linspace(0.0, h, 200)
-            a.plot(d["u_surface_bagnold_m_s"] * (1.0 - (1.0 - zz / h) ** 1.5), zz, "k-", label="Bagnold")
-        a.set_xlabel("u [m s-1]")
-        a.set_ylabel("z [m]")
-        a.legend(fontsize="small")
-        a.set_title("velocity profile at the last record", fontsize="small")
-        rec = d["u_surface_record"]
-        b.plot(rec["t_s"], rec["u_m_s"], "-", color="tab:blue", label="surface speed u_s")
-        if d.get("u_surface_bagnold_m_s") is not None:
-            b.axhline(d["u_surface_bagnold_m_s"], color="k", ls="--", label="Bagnold u_s")
-        b.set_xlabel("t [s]")
-        b.set_ylabel("u_s [m s-1]")
-        b.legend(fontsize="small")
-        b.set_title(f"u_s error {100 * (d.get('u_surface_rel_error') or float('nan')):+.2f} %", fontsize="small")
-        path = outdir / "profile.png"
-    elif case == "sheared_layer" and d.get("phi_record"):
-        rec = d["phi_record"]
-        fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
-        ax.plot(rec["t_s"], rec["reference"], "k-", label=str(d.get("reference", "reference")))
-        ax.plot(rec["t_s"], rec["phi"], "o", color="tab:blue", ms=4, label="granflow")
-        ax.axhline(d.get("phi_eq", float("nan")), color="k", ls=":", lw=0.8, label="phi_eq(I)")
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("packing fraction phi [-]")
-        ax.legend(fontsize="small")
-        ax.set_title(f"homogeneous shear: max error {d.get('max_error_rel') or float('nan'):.2e} "
-                     "of |phi0 - phi_eq|", fontsize="small")
-        path = outdir / "relaxation.png"
-    else:
-        return []
-    fig.savefig(path, dpi=FIGURE_DPI)
-    plt.close(fig)
-    return [path]
+    return cell_edges(ds["x"].values), cell_edges(ds["z"].values)
 
 
 def units_of(ds, name: str, default: str) -> str:
@@ -274,8 +228,8 @@ def units_of(ds, name: str, default: str) -> str:
 def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     """Figures of a ``granflow run`` output file: ``snapshots.png`` (phi, and p_f when non-zero,
     at the first, middle and last records, with the granular speed), ``front.png`` (front
-    position and kinetic energy against time) and, with basal probes, ``probes.png`` (basal p_f
-    and p against time)."""
+    position and kinetic energy against time, :func:`front_figure`; not written when neither
+    moves) and, with basal probes, ``probes.png`` (basal p_f and p against time)."""
     import xarray as xr
 
     plt = _pyplot()
@@ -290,13 +244,18 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
     has_pf = "p_f" in ds and float(abs(ds["p_f"]).max()) > 0
     rows = 2 if has_pf else 1
     x, z = ds["x"].values, ds["z"].values
-    fig, axes = plt.subplots(rows, len(picks), figsize=(4.6 * len(picks), 2.4 * rows + 0.6),
-                             squeeze=False, constrained_layout=True)
+    panel_w = SNAPSHOT_PANEL_IN[0]
+    if equal_aspect(ds) and x.size > 1 and z.size > 1:  # a tall box to scale: narrower panels
+        ratio = (x[-1] - x[0]) / (z[-1] - z[0])
+        panel_w = min(panel_w, max(SNAPSHOT_MIN_WIDTH_IN, SNAPSHOT_PANEL_IN[1] * ratio + SNAPSHOT_BAR_IN))
+    width = max(panel_w * len(picks), SNAPSHOT_MIN_FIGURE_IN)  # room for the suptitle
+    fig, axes = plt.subplots(rows, len(picks), squeeze=False, constrained_layout=True,
+                             figsize=(width, SNAPSHOT_PANEL_IN[1] * rows + SNAPSHOT_TITLE_IN))
     for k, i in enumerate(picks):
         snap = ds.isel(time=i)
         ax = axes[0, k]
-        m = ax.pcolormesh(x, z, snap["phi"].transpose("z", "x").values, vmin=0.0,
-                          vmax=float(ds.attrs.get("phi_max", 0.6)), cmap="YlOrBr", shading="auto")
+        m = ax.pcolormesh(*mesh_xz(ds), snap["phi"].transpose("z", "x").values, vmin=0.0,
+                          vmax=float(ds.attrs.get("phi_max", 0.6)), cmap="YlOrBr")
         if "u" in snap and "w" in snap:
             speed_contours(ax, ds, i)
         draw_front(ax, ds, i)
@@ -307,45 +266,21 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         fig.colorbar(m, ax=ax, shrink=0.8)
         if has_pf:
             ax = axes[1, k]
-            m = ax.pcolormesh(x, z, snap["p_f"].transpose("z", "x").values, cmap="viridis", shading="auto")
+            m = ax.pcolormesh(*mesh_xz(ds), snap["p_f"].transpose("z", "x").values, cmap="viridis")
             ax.set_aspect("equal" if equal_aspect(ds) else "auto")
             ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
             ax.set_xlabel(f"x [{lu}]")
+            ax.set_ylabel(f"z [{lu}]")
             fig.colorbar(m, ax=ax, shrink=0.8)
     fig.suptitle(f"packing phi; labelled contours: grain speed [{units_of(ds, 'u', 'm s-1')}] where "
                  f"{grain_rule(ds)}, above the rest speed; dashed: front x_f", fontsize="small")
-    snap_path = outdir / "snapshots.png"
-    fig.savefig(snap_path, dpi=100)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    paths = [save_figure(fig, outdir / "snapshots.png", FIGURE_DPI)]
+    front = front_figure(ds, outdir / "front.png")
+    if front is not None:
+        paths.append(front)
     t = ds["time"].values
-    if "x_front" in ds:
-        ax.plot(t, ds["x_front"].values, "k-", label="front x_f")
-    ax.set_xlabel(f"t [{tu}]")
-    ax.set_ylabel(f"front position [{lu}]")
-    if "kinetic_energy" in ds:
-        ax2 = ax.twinx()
-        ke = np.asarray(ds["kinetic_energy"].values, dtype=float)
-        ke_unit = units_of(ds, "kinetic_energy", "J m-1")
-        positive = ke[np.isfinite(ke) & (ke > 0)]
-        if not positive.size or positive.max() < AT_REST_KE:  # no flat line at 1e-30
-            ax2.set_yticks([])
-            ax2.text(0.5, 0.9, f"grains at rest: kinetic energy <= {np.nanmax(ke):.1e} {ke_unit}",
-                     transform=ax2.transAxes, ha="center", va="top", color="tab:red", fontsize="small",
-                     bbox={"facecolor": "white", "edgecolor": "none"}, gid="at_rest")
-        else:
-            ax2.plot(t, ke, "tab:red", label="kinetic energy")
-            if positive.max() > AT_REST_DECADES * positive.min():
-                ax2.set_yscale("log")  # from release to rest the energy spans many decades
-        ax2.set_ylabel(f"kinetic energy [{ke_unit}]", color="tab:red")
-    ax.set_title(f"{ds.attrs.get('case', '')} ({ds.attrs.get('closure', '')})", fontsize="small")
-    front_path = outdir / "front.png"
-    fig.savefig(front_path, dpi=100)
-    plt.close(fig)
-    paths = [snap_path, front_path]
     if "probe_p_f" in ds:
-        fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+        fig, ax = plt.subplots(figsize=LINE_FIGURE_IN, constrained_layout=True)
         for k, xp in enumerate(ds["x_probe"].values):
             line, = ax.plot(t, ds["probe_p_f"].values[:, k], "-", label=f"p_f, x = {xp:.3g} m")
             ax.plot(t, ds["probe_p"].values[:, k], "--", color=line.get_color(), label=f"p, x = {xp:.3g} m")
@@ -353,11 +288,53 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         ax.set_ylabel(f"basal pressure [{units_of(ds, 'probe_p_f', 'Pa')}]")
         ax.legend(fontsize="small")
         ax.set_title("basal probes: pore pressure p_f (solid), granular pressure p (dashed)", fontsize="small")
-        probes_path = outdir / "probes.png"
-        fig.savefig(probes_path, dpi=100)
-        plt.close(fig)
-        paths.append(probes_path)
+        paths.append(save_figure(fig, outdir / "probes.png", FIGURE_DPI))
     return paths
+
+
+def front_figure(ds, path: str | Path) -> Path | None:
+    """``front.png``: the front position and the kinetic energy against time. Without a front (NaN:
+    a periodic layer) a note (gid ``no_front``) and the energy on the main axis; energies below
+    :data:`AT_REST_KE` are the note "grains at rest" (gid ``at_rest``), not a flat line at
+    1e-30 J/m; an energy spanning decades is on a log axis (its zero at release is not drawn).
+    Nothing to show -- a front that never moves and grains at rest (static, sheared, defluidising
+    layers) -- writes no figure: None."""
+    t = ds["time"].values
+    lu, tu = units_of(ds, "x", "m"), units_of(ds, "time", "s")
+    xf = np.asarray(ds["x_front"].values, dtype=float) if "x_front" in ds else np.array([])
+    xf_finite = xf[np.isfinite(xf)]
+    front_moves = xf_finite.size > 0 and float(np.ptp(xf_finite)) > 0.0
+    ke = np.asarray(ds["kinetic_energy"].values, dtype=float) if "kinetic_energy" in ds else None
+    positive = ke[np.isfinite(ke) & (ke > 0)] if ke is not None else np.array([])
+    ke_moves = positive.size > 0 and positive.max() >= AT_REST_KE
+    if not front_moves and not ke_moves:
+        return None
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=LINE_FIGURE_IN, constrained_layout=True)
+    ax.set_xlabel(f"t [{tu}]")
+    if xf_finite.size:
+        ax.plot(t, xf, "k-", label="front x_f")
+        ax.set_ylabel(f"front position [{lu}]")
+        ke_ax = ax.twinx() if ke is not None else None
+    else:  # e.g. a periodic layer
+        ax.text(NOTE_XY[0], NOTE_XY[1], "no front (the grains reach both sides)", transform=ax.transAxes,
+                ha="left", va="bottom", fontsize="small", gid="no_front")
+        ke_ax = ax
+    if ke_ax is not None:
+        ke_unit = units_of(ds, "kinetic_energy", "J m-1")
+        if not ke_moves:  # no flat line at 1e-30
+            ke_ax.set_yticks([])
+            ke_ax.text(0.5, 0.9, f"grains at rest: kinetic energy <= {np.nanmax(ke):.1e} {ke_unit}",
+                       transform=ke_ax.transAxes, ha="center", va="top", color="tab:red", fontsize="small",
+                       bbox={"facecolor": "white", "edgecolor": "none"}, gid="at_rest")
+        elif positive.max() > AT_REST_DECADES * positive.min():  # release to rest: many decades
+            ke_ax.plot(t, np.where(ke > 0, ke, np.nan), "tab:red", label="kinetic energy (log axis)")
+            ke_ax.set_yscale("log")
+        else:
+            ke_ax.plot(t, ke, "tab:red", label="kinetic energy")
+        ke_ax.set_ylabel(f"kinetic energy [{ke_unit}]", color="tab:red")
+    ax.set_title(f"{ds.attrs.get('case', '')} ({ds.attrs.get('closure', '')})", fontsize="small")
+    return save_figure(fig, path, FIGURE_DPI)
 
 
 # --------------------------------------------------------------------------------------------
@@ -532,9 +509,8 @@ def snapshot_axes(ax, ds, var: str, index: int, limits: tuple[float, float] | No
     """
     field = run_field(ds, var)
     vmin, vmax = limits or colour_limits(field[index], var, ds.attrs.get("phi_max"))
-    x, z = ds["x"].values, ds["z"].values
-    mesh = ax.pcolormesh(x, z, np.asarray(field.values[index], dtype=float).T, vmin=vmin, vmax=vmax,
-                         cmap=_cmap(var), shading="nearest")
+    mesh = ax.pcolormesh(*mesh_xz(ds), np.asarray(field.values[index], dtype=float).T, vmin=vmin,
+                         vmax=vmax, cmap=_cmap(var))
     contour = _surface(ax, ds, index, free_surface_level(ds))
     draw_front(ax, ds, index)
     bar = ax.figure.colorbar(mesh, ax=ax, location="bottom", shrink=0.9, aspect=40)
@@ -551,9 +527,7 @@ def snapshot_figure(ds, var: str, index: int, path: str | Path) -> Path:
     """Write the snapshot of ``var`` at record ``index`` (:func:`snapshot_axes`) to ``path``."""
     plt, fig, ax = _figure(ds)
     snapshot_axes(ax, ds, var, index)
-    fig.savefig(path, dpi=FIGURE_DPI)
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, path, FIGURE_DPI)
 
 
 def animate_run(ds, var: str, path: str | Path, fps: int = GIF_FPS) -> Path:

@@ -18,6 +18,7 @@ Dask (``pip install granflow[sweep]``) is imported only by :func:`run_sweep`.
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import io
@@ -56,6 +57,8 @@ LOCAL_DASHBOARD = ":0"
 #: Member statuses in the table.
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
+STATUS_STOPPED = "stopped"
+"""Status shown by the progress display for a member stopped by Ctrl-C (failed in the files)."""
 #: Separator of nested keys (overrides and flattened summaries).
 KEY_SEP = "."
 #: Fixed leading columns of the table.
@@ -222,6 +225,8 @@ def run_member_task(run_member: MemberFunction, config: dict[str, Any],
     on failure, and returns ``(status, summary or error record)``.
     """
     out = Path(member_dir)
+    if (out.parent / STOP_FILE).exists():  # queued when the sweep was interrupted: not started
+        return STATUS_FAILED, {"error": "not run: the sweep was interrupted (Ctrl-C)"}
     out.mkdir(parents=True, exist_ok=True)
     (out / ERROR_FILE).unlink(missing_ok=True)
     try:
@@ -330,15 +335,67 @@ WORKER_CLOSE_TIMEOUT_S = 60.0
 """Time a worker process gets to exit at the end (distributed's default, 5 s, is shorter than a
 worker that imported the solver needs on a loaded machine: it was killed, with a warning)."""
 MEMBER_PROGRESS_FILE = "progress.json"
+STOP_FILE = "stop"
+"""Written in the sweep directory on Ctrl-C: running members stop after their current step (their
+progress callback reads it, :class:`granflow.cases.sweep_member.MemberProgress`), queued ones do
+not start; removed when the sweep runs again."""
+STOP_WAIT_S = 120.0
+"""How long an interrupted sweep waits for its running members to stop; a second Ctrl-C stops
+waiting (the members' workers are then killed)."""
+ABANDON_CLOSE_TIMEOUT_S = 2.0
+"""Time a worker gets to exit after a second Ctrl-C."""
 
 
-def _close_cluster(cluster) -> None:
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`run_sweep`: the running members were stopped after their current step
+    (``abandoned``: not waited for, after a second Ctrl-C). ``done`` of ``total`` members have a
+    summary; running the sweep again runs the others."""
+
+    def __init__(self, done: int, total: int, abandoned: bool) -> None:
+        super().__init__(f"{done} of {total} member(s) done")
+        self.done, self.total, self.abandoned = done, total, abandoned
+
+
+def dask_setup(worker) -> None:
+    """Preload of the local cluster's worker processes (``LocalCluster(preload=["granflow.sweep"])``):
+    they ignore SIGINT, so a Ctrl-C on the terminal -- sent to every process of the foreground
+    group -- reaches only ``granflow sweep``, which stops the members cleanly (the workers used to
+    receive it too and die mid-member, with pages of tracebacks and "Worker process still alive
+    ... killing" 48 s later)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """Ignore SIGINT in this process while the local cluster starts: the worker processes
+    spawned meanwhile inherit the disposition from birth (before :func:`dask_setup` runs, a Ctrl-C
+    killed them mid-import with pages of tracebacks), and the cluster is not left half started
+    (distributed's atexit close then failed: "AssertionError: Status.init"). A Ctrl-C in these
+    few seconds is lost; the next one stops the sweep."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _close_cluster(cluster, timeout: float = WORKER_CLOSE_TIMEOUT_S) -> None:
     """Close the local cluster's workers with a generous timeout, then the cluster: no
     "Worker process still alive ... killing" warnings."""
     import asyncio
 
     async def stop_workers():
-        await asyncio.gather(*(w.close(timeout=WORKER_CLOSE_TIMEOUT_S) for w in list(cluster.workers.values())),
+        await asyncio.gather(*(w.close(timeout=timeout) for w in list(cluster.workers.values())),
                              return_exceptions=True)
 
     try:
@@ -450,15 +507,19 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
         return status
 
     cluster = client = None
+    abandoned = False
     try:
         if todo:  # connect first: an unreachable scheduler must not leave files behind
             if scheduler is None:
-                cluster = LocalCluster(n_workers=workers or DEFAULT_WORKERS, threads_per_worker=1,
-                                       processes=True, dashboard_address=LOCAL_DASHBOARD)
+                with _sigint_ignored():  # and dask_setup: the workers ignore Ctrl-C
+                    cluster = LocalCluster(n_workers=workers or DEFAULT_WORKERS, threads_per_worker=1,
+                                           processes=True, dashboard_address=LOCAL_DASHBOARD,
+                                           preload=[__name__])
             client = Client(cluster if cluster is not None else scheduler)
         if started is not None:
             started()
         out.mkdir(parents=True, exist_ok=True)
+        (out / STOP_FILE).unlink(missing_ok=True)
         write_json_atomic(out / SPEC_FILE, spec.model_dump(mode="json"))
         tasks = []
         for member_id, overrides, mdir in todo:
@@ -473,23 +534,39 @@ def run_sweep(spec: SweepSpec | Mapping[str, Any], run_member: MemberFunction,
             pending = set(futures)
             done_count = len(members) - len(todo)
             report(None)
-            while pending:
+            ok_count = done_count
+
+            def drain(deadline: float, stopping: bool = False) -> None:
+                nonlocal pending, done_count, ok_count
+                while pending and time.monotonic() < deadline:
+                    try:
+                        finished, pending = wait(pending, timeout=POLL_S, return_when="FIRST_COMPLETED")
+                    except TimeoutError:  # none finished within POLL_S: report the running ones
+                        finished = set()
+                    for future in finished:
+                        mid = futures[future]
+                        status = _collect(future, mid)
+                        done_count += 1
+                        ok_count += status == STATUS_OK
+                        report(mid, STATUS_STOPPED if stopping and status == STATUS_FAILED else status,
+                               done_count)
+                    if not finished:
+                        report(None, done=done_count)
+
+            try:
+                drain(float("inf"))
+            except KeyboardInterrupt:  # stop the running members after their step, start no other
+                (out / STOP_FILE).write_text("Ctrl-C\n", encoding="utf-8")
                 try:
-                    finished, pending = wait(pending, timeout=POLL_S, return_when="FIRST_COMPLETED")
-                except TimeoutError:  # none finished within POLL_S: report the running ones
-                    finished = set()
-                for future in finished:
-                    mid = futures[future]
-                    status = _collect(future, mid)
-                    done_count += 1
-                    report(mid, status, done_count)
-                if not finished:
-                    report(None, done=done_count)
+                    drain(time.monotonic() + STOP_WAIT_S, stopping=True)
+                except KeyboardInterrupt:  # a second Ctrl-C: do not wait
+                    abandoned = True
+                raise SweepInterrupted(ok_count, total, abandoned or bool(pending)) from None
     finally:
         if client is not None:
             client.close()
         if cluster is not None:
-            _close_cluster(cluster)
+            _close_cluster(cluster, ABANDON_CLOSE_TIMEOUT_S if abandoned else WORKER_CLOSE_TIMEOUT_S)
 
     table = out / TABLE_FILE
     _write_table(table, [rows[mid] for mid, _ in members], list(spec.parameters))

@@ -15,7 +15,7 @@ from granflow.registry import discover_modules
 #: restarts, sweeps, ...): not imported here, so ``import granflow.cases`` stays light. Every other
 #: module is a case module (adding a case is one file, see docs/cases.md).
 INFRASTRUCTURE = ("common", "headlines", "memory", "options", "output_specs", "preparation", "registry",
-                  "restart", "runner", "sweep_member", "wall_contact")
+                  "restart", "runner", "step_clock", "sweep_member", "wall_contact")
 
 
 def discover(paths: Iterable[str] = ()) -> list[str]:

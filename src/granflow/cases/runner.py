@@ -38,6 +38,7 @@ from granflow.cases.memory import check_memory
 from granflow.cases.output_specs import FIELD_SPECS, PROBE_DIM, PROBE_SPECS, SERIES_SPECS, SI_KIND, UNIT_KINDS
 from granflow.cases.registry import CASES
 from granflow.cases.restart import CHECKPOINT_DIR, check_checkpoint, resolve_checkpoint
+from granflow.cases.step_clock import StepClock
 from granflow.cases.wall_contact import WallWatch, warning_text
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
@@ -96,7 +97,7 @@ class Progress:
     eta_s: float
     wall_s: float
     warming_up: bool = False
-    """True until a step has been timed without the first one (which compiles the kernels)."""
+    """True while the kernels compile (:mod:`granflow.cases.step_clock`): no rate, no ETA."""
 
 
 @dataclass(frozen=True)
@@ -180,7 +181,7 @@ class CaseRun:
             for old in self.checkpoints.steps():
                 self.checkpoints.path(old).unlink(missing_ok=True)
         self._session_t0 = (self.sim.state.t, time.perf_counter())
-        self._after_first: tuple[float, float, int] | None = None
+        self._clock = StepClock()  # rate and ETA without the steps that compile the kernels
         """(t, wall, reports) at the end of the session's first step: the rate and ETA leave out
         that step, which compiles the Numba kernels."""
         self.writer = self._open_writer(resume=restart is not None and self.output_path.exists())
@@ -342,19 +343,10 @@ class CaseRun:
             sim.stop_time = sim.state.t  # at rest long enough: done() is now true, status completed
             self.stopped_at_rest = True
         if self.progress is not None and sim.reports:
-            now = time.perf_counter()
-            n = len(sim.reports)
-            if self._after_first is None:  # the first step of a session compiles the kernels
-                self._after_first = (sim.state.t, now, n)
-            t0, w0, n0 = self._after_first
-            elapsed = now - w0
-            warming = n <= n0  # no step timed yet without the compilation: no rate, no ETA
-            rate = (sim.state.t - t0) / elapsed if elapsed > 0 and not warming else 0.0
-            eta = (sim.stop_time - sim.state.t) / rate if rate > 0 else float("inf")
+            rate = self._clock.tick(sim.state.t, time.perf_counter(), len(sim.reports), sim.stop_time)
             self.progress(Progress(t=sim.state.t, stop_time=sim.stop_time, dt=sim.reports[-1].dt,
-                                   step=sim.state.step,
-                                   steps_per_s=(n - n0) / elapsed if elapsed > 0 and not warming else 0.0,
-                                   eta_s=eta, wall_s=self.wall_s(), warming_up=warming))
+                                   step=sim.state.step, steps_per_s=rate.steps_per_s, eta_s=rate.eta_s,
+                                   wall_s=self.wall_s(), warming_up=rate.warming_up))
 
     def wall_s(self) -> float:
         """Wall time of the run so far, over all restarts [s]."""
@@ -449,10 +441,10 @@ class CaseRun:
     def _figures(self) -> dict[str, Any]:
         """Write the run figures; a plotting problem is recorded, never fatal to the run."""
         try:
-            from granflow import plotting
+            from granflow import case_figures, plotting
 
             paths = plotting.run_figures(self.output_path, self.directory)
-            paths += plotting.case_figures(self.output_path, self._summary_for_figures, self.directory)
+            paths += case_figures.case_figures(self.output_path, self._summary_for_figures, self.directory)
             return {"files": [p.name for p in paths]}
         except Exception as err:  # noqa: BLE001 - figures must not lose a finished run
             return {"error": f"{type(err).__name__}: {err}"}

@@ -4,8 +4,9 @@ The layer ``0 <= z <= H`` fills the whole box width at packing ``phi0``. With a 
 (or any slope below the friction angle) the exact solution is rest with the lithostatic
 pressure ``p = phi0 rho_s g cos(slope) (H - z)``, which the discrete scheme reproduces exactly in
 every completely filled cell below a completely filled top cell (telescoping sum of the discrete
-hydrostatic balance; tests/test_solver_dry.py). ``summary.json`` reports the largest speed and the
-largest relative deviation from that pressure over the filled cells.
+hydrostatic balance; tests/test_solver_dry.py). ``summary.json`` reports the largest speed, the
+largest relative deviation from that pressure over the filled cells and the pressure profile
+(``pressure_profile``, drawn in ``pressure.png``).
 """
 from __future__ import annotations
 
@@ -30,6 +31,10 @@ from granflow.simulation import Simulation
 from granflow.state import State
 
 
+ROUND_OFF = 1e-12
+"""Relative tolerance of the comparisons of cell edges with the layer top H."""
+
+
 class StaticLayerSetup(Section):
     """``[setup]`` of ``static_layer``."""
 
@@ -49,7 +54,7 @@ def lithostatic_reference(config: CaseConfig, grid) -> tuple[np.ndarray, np.ndar
     _, Z = grid.cell_coords()
     H = config.setup.H
     p = packing(config) * config.material.rho_s * abs(config.gravity_vector[1]) * (H - Z)
-    full = Z + 0.5 * grid.dz <= H * (1 + 1e-12)
+    full = Z + 0.5 * grid.dz <= H * (1 + ROUND_OFF)
     return np.where(full, p, 0.0), full
 
 
@@ -59,7 +64,23 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
     scale = float(p_ref.max()) if p_ref.size else 0.0
     return {"H_m": config.setup.H, "max_speed_m_s": float(np.max(np.abs(sim.state.vel))),
             "pressure_rel_error": float(err.max() / scale) if err.size and scale > 0 else None,
-            "pressure_reference": "phi0 rho_s |g_z| (H - z) in completely filled cells"}
+            "pressure_reference": "phi0 rho_s |g_z| (H - z) in completely filled cells",
+            "pressure_profile": pressure_profile(sim, config)}
+
+
+def pressure_profile(sim: Simulation, config: CaseConfig) -> dict[str, list]:
+    """The pressure of the final state against the lithostatic one, row by row over the rows
+    holding grains (``pressure.png``): ``z_m``, ``p_Pa`` (mean over x: the layer fills the box
+    width), ``reference_Pa`` (closed form, clipped at 0 above H) and ``full`` (the row is entirely
+    inside the layer, where the two must agree)."""
+    grid = sim.model.grid
+    H = config.setup.H
+    z = np.asarray(grid.zc)
+    rows = z - 0.5 * grid.dz < H * (1 - ROUND_OFF)  # a row whose bottom is H holds no grains
+    ref = packing(config) * config.material.rho_s * abs(config.gravity_vector[1]) * np.maximum(H - z, 0.0)
+    _, full = lithostatic_reference(config, grid)
+    return {"z_m": z[rows].tolist(), "p_Pa": np.asarray(sim.state.p).mean(axis=0)[rows].tolist(),
+            "reference_Pa": ref[rows].tolist(), "full": full.all(axis=0)[rows].tolist()}
 
 
 @CASES.register("static_layer", setup_model=StaticLayerSetup, check=check, diagnostics=diagnostics,

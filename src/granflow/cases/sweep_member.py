@@ -79,10 +79,16 @@ PROGRESS_INTERVAL_S = 1.0
 
 
 class MemberProgress:
-    """Progress callback of a member's run: ``outdir/progress.json`` at most every second."""
+    """Progress callback of a member's run: ``outdir/progress.json`` at most every second; then
+    also, when the sweep was interrupted (its directory holds :data:`granflow.sweep.STOP_FILE`),
+    ``request_stop``: the run stops after the current step, as ``granflow run`` on Ctrl-C."""
 
-    def __init__(self, outdir: Path) -> None:
+    def __init__(self, outdir: Path, request_stop=None) -> None:
+        from granflow.sweep import STOP_FILE
+
         self.path = Path(outdir) / PROGRESS_FILE
+        self.stop_file = Path(outdir).parent / STOP_FILE
+        self.request_stop = request_stop
         self._last = -float("inf")
 
     def __call__(self, p) -> None:
@@ -94,6 +100,8 @@ class MemberProgress:
         if now - self._last < PROGRESS_INTERVAL_S:
             return
         self._last = now
+        if self.request_stop is not None and self.stop_file.exists():
+            self.request_stop("the sweep was stopped (Ctrl-C)")
         try:
             write_json_atomic(self.path, {"t": p.t, "stop_time": p.stop_time, "step": p.step,
                                           "wall_s": p.wall_s, "warming_up": p.warming_up})
@@ -135,7 +143,10 @@ def run_member(config: dict[str, Any], outdir: Path) -> dict[str, Any]:
         case = load_case(case_file)
     except GranflowInputError as err:  # pragma: no cover - validated above; a TOML round-trip bug
         raise GranflowInputError(f"member case file {case_file}: {err}") from None
-    result = CaseRun(case, run_dir, overwrite=True, progress=MemberProgress(Path(outdir))).run()
+    progress = MemberProgress(Path(outdir))
+    run = CaseRun(case, run_dir, overwrite=True, progress=progress)
+    progress.request_stop = run.sim.request_stop
+    result = run.run()
     summary = result.summary
     if summary.get("status") != STATUS_COMPLETED:
         raise MemberRunFailed(f"run {summary.get('status')}: {result.message}")

@@ -29,7 +29,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from granflow.cli import ExitCode
+from granflow.cli import INTERRUPTED, ExitCode
 from granflow.errors import GranflowInputError
 
 SWEEP_TABLE = "sweep"
@@ -47,6 +47,8 @@ MAX_MEMBER_ERRORS = 3
 """Invalid members named in the error message (the count of the others is given)."""
 KEY_SEP = "."
 COLUMN_GAP = "  "
+ERASE_LINE = "\x1b[K"
+"""ANSI: erase to the end of the line (the in-place progress line on a terminal)."""
 
 EXIT_CODES_HELP = f"""exit codes:
   {ExitCode.OK:<4d} every member completed (now or in an earlier invocation)
@@ -58,7 +60,9 @@ EXIT_CODES_HELP = f"""exit codes:
        file, DIR holding another sweep or a foreign sweep.json, an unwritable --out; also an
        unreachable --scheduler (after Dask's connect timeout, 30 s by default); nothing written
   {ExitCode.INTERNAL:<4d} internal error (a bug): traceback printed
-  Ctrl-C stops the sweep (exit 1); run the same command again to finish it."""
+  {INTERRUPTED:<4d} interrupted (Ctrl-C): the running members stop after their current step (a
+       second Ctrl-C stops waiting), no other member starts; run the same command again to
+       finish the sweep (the interrupted members run again from their start)."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -246,9 +250,11 @@ def format_table(rows: list[dict[str, str]], override_keys: list[str]) -> list[s
 
 class SweepDisplay:
     """Progress of a sweep on ``stream``: on a terminal with ``rich``, a bar per running member
-    (its simulated time against its stop time) and one overall (members done); otherwise a line
-    when a member finishes (``sweep: m0001 ok (2/3 done, 0:01:10 elapsed): run-out ...``) and, every
-    :data:`LOG_INTERVAL_S`, the running members' simulated times."""
+    (its simulated time against its stop time) and one overall (members done); on a terminal
+    without it, a line when a member finishes (``sweep: m0001 ok (2/3 done, 0:01:10 elapsed):
+    run-out ...``) below one line of the running members' simulated times, rewritten every
+    second; otherwise (a log file) the finished members' lines and, every :data:`LOG_INTERVAL_S`,
+    the running members' times."""
 
     LOG_INTERVAL_S = 10.0
 
@@ -258,6 +264,7 @@ class SweepDisplay:
         self._rich = None
         self._tasks: dict[str, Any] = {}
         self._last = 0.0
+        self._open_line = False
         if self.tty:
             try:
                 from rich.console import Console
@@ -275,6 +282,11 @@ class SweepDisplay:
 
         runout = p.summary.get("runout_m")
         what = f": run-out {_runout(str(runout))} m" if runout not in (None, "") else ""
+        if p.summary.get("still_moving"):
+            what += " (still moving: not final)"
+        not_converged = p.summary.get("picard.not_converged_steps") or 0
+        if not_converged:  # as on the end-of-run line of granflow run
+            what += f"; Picard not converged in {not_converged} of {p.summary.get('steps')} steps"
         return (f"{p.member_id} {p.status} ({p.done}/{p.total} done, "
                 f"{_duration(p.elapsed_s)} elapsed){what}")
 
@@ -285,8 +297,9 @@ class SweepDisplay:
         parts = [f"{mid} t = {r.get('t', 0):.3g}/{r.get('stop_time', 0):.3g}"
                  + (" (compiling kernels, once)" if r.get("warming_up") else "")
                  for mid, r in sorted(p.running.items())]
+        idle = "; starting the workers" if p.done == 0 else "; starting the next member(s)"
         return (f"{p.done}/{p.total} done, {_duration(p.elapsed_s)} elapsed"
-                + (f"; running: {', '.join(parts)}" if parts else "; starting the workers"))
+                + (f"; running: {', '.join(parts)}" if parts else idle))
 
     def __call__(self, p) -> None:
         import time
@@ -296,14 +309,26 @@ class SweepDisplay:
             for mid, r in p.running.items():
                 if mid not in self._tasks:
                     self._tasks[mid] = self._rich.add_task(mid, total=r.get("stop_time") or None)
-                self._rich.update(self._tasks[mid], completed=r.get("t", 0.0))
-            if p.member_id is not None and p.member_id in self._tasks:
-                task = self._tasks[p.member_id]
-                self._rich.update(task, completed=self._rich.tasks[task].total or 1.0,
-                                  description=f"{p.member_id} {p.status}")
+                self._rich.update(self._tasks[mid], completed=r.get("t", 0.0),
+                                  description=mid + (" (compiling kernels, once)" if r.get("warming_up") else ""))
+            if p.member_id is not None:
+                if p.member_id in self._tasks:
+                    task = self._tasks[p.member_id]
+                    total = next((t.total for t in self._rich.tasks if t.id == task), None)
+                    self._rich.update(task, completed=total or 1.0, description=f"{p.member_id} {p.status}")
+                self._rich.console.print(f"granflow: sweep: {self.member_line(p)}", markup=False,
+                                         highlight=False)  # the run-out, warnings: kept above the bars
             return
         now = time.monotonic()
-        if p.member_id is not None:
+        if self.tty:  # a terminal without rich: the running line rewritten in place
+            head = "\r" + ERASE_LINE
+            if p.member_id is not None:
+                self.stream.write(f"{head}granflow: sweep: {self.member_line(p)}\n")
+                self._open_line = False
+            if p.done < p.total:
+                self.stream.write(f"{head}granflow: sweep: {self.running_line(p)}")
+                self._open_line = True
+        elif p.member_id is not None:
             self.stream.write(f"granflow: sweep: {self.member_line(p)}\n")
         elif now - self._last >= self.LOG_INTERVAL_S:
             self.stream.write(f"granflow: sweep: {self.running_line(p)}\n")
@@ -315,12 +340,17 @@ class SweepDisplay:
     def close(self) -> None:
         if self._rich is not None:
             self._rich.stop()
+            self._rich = None
+        if self._open_line:  # leave the terminal on a fresh line
+            self.stream.write("\r" + ERASE_LINE)
+            self.stream.flush()
+            self._open_line = False
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``granflow sweep``; returns 0 if every member completed, 1 if any failed."""
     from granflow.cases.sweep_member import run_member
-    from granflow.sweep import STATUS_FAILED, run_sweep
+    from granflow.sweep import STATUS_FAILED, SweepInterrupted, run_sweep
 
     if args.workers is not None and args.scheduler is not None:
         raise GranflowInputError("--workers sets the size of the local cluster; it cannot be "
@@ -353,6 +383,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except OSError as err:  # e.g. the scheduler cannot be reached, out not writable
         hint = f" (--scheduler {args.scheduler})" if args.scheduler else ""
         raise GranflowInputError(f"sweep{hint}: {type(err).__name__}: {err}") from None
+    except SweepInterrupted as stop:
+        display.close()
+        how = ("not waited for (second Ctrl-C)" if stop.abandoned
+               else "stopped after their current step")
+        print(f"granflow: sweep interrupted (Ctrl-C): {stop.done} of {stop.total} member(s) done, the "
+              f"running ones {how}; run the same command again to finish it", file=sys.stderr)
+        return INTERRUPTED
     finally:
         display.close()
     with open(table, newline="", encoding="utf-8") as fh:

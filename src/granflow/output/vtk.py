@@ -19,8 +19,9 @@ ROUND_OFF = 1e-9
 """Edges closer to 0 than this fraction of the cell size are 0 (round-off of centre - h/2)."""
 
 
-def _edges(centres: np.ndarray) -> np.ndarray:
-    """Cell edges of a uniform axis from its centres [m]."""
+def cell_edges(centres: np.ndarray) -> np.ndarray:
+    """Cell edges of a uniform axis from its centres [m] (also the mesh of the snapshot figures,
+    :mod:`granflow.plotting`)."""
     if centres.size < 2:
         raise ValueError("need at least two cells per direction")
     h = float(centres[1] - centres[0])
@@ -43,7 +44,7 @@ def _values(a: np.ndarray) -> str:
 def write_record(ds, record: int, path: str | Path) -> Path:
     """Write record ``record`` of a run Dataset (fields over time, z, x in any order) to ``path``."""
     snap = ds.isel(time=record)
-    xe, ze = _edges(ds["x"].values), _edges(ds["z"].values)
+    xe, ze = cell_edges(ds["x"].values), cell_edges(ds["z"].values)
     nx, nz = ds.sizes["x"], ds.sizes["z"]
     t = float(snap["time"])
     lines = [
