@@ -106,6 +106,7 @@ from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.coupling import GasCoupling
 from granflow.model_coefficients import ClosureCoefficients
+from granflow.model_gravity import GravityWeights
 from granflow.physics.material import (
     C_MIN,
     PHI_EMPTY,
@@ -118,17 +119,13 @@ from granflow.physics.material import (
     surface_lithostatic,
 )
 from granflow.physics.pore_pressure import GasLaw, cell_permeability, face_permeability
-from granflow.physics.transport import (
-    PhiScheme,
-    advect,
-    flux_face_fraction,
-)
+from granflow.physics.transport import PhiScheme, advect
 from granflow.rheology.base import Closure
 from granflow.solvers import make_linear_solver, pardiso_available
 from granflow.state import State
 
 
-class Model(ClosureCoefficients):
+class Model(ClosureCoefficients, GravityWeights):
     """Grid + closure + gravity + wall conditions + numerical parameters; :meth:`advance`.
 
     Parameters
@@ -496,59 +493,6 @@ class Model(ClosureCoefficients):
         out_z[at] = kc[:, :-1][at] / (theta[at] * kz[at])
         out[g.w_slice] = out_z.ravel()
         return out
-
-    def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
-        """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
-        face fraction of the mass flux of a step with velocity ``vel``
-        (:func:`granflow.physics.transport.flux_face_fraction`), evaluated at ``vel``."""
-        phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity,
-                                       self.material.phi_max, self.phi_transport)
-                    if self.consistent_gravity else None)
-        return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
-
-    def blend_velocity(self, dt: float) -> float:
-        """Blend velocity ``u_b`` of the step's gravity weight [m s^-1] (:meth:`gravity_split`):
-        ``numerics.gravity_blend_velocity`` if set, else the creep scale ``eps Lz`` (threshold
-        surface) or ``|g| dt``, the speed gravity gives in one step (indicator surface), so that
-        the implicit drag rate ``|g| dphi / u_b`` stays below ``1/dt``: a stiffer drag holds back
-        the slow compaction of a fluidised surface (measured: a 25 deg fluidised chute at 20 cells
-        drifts 1.4 % per 2 s with u_b = 1e-3 m/s and is steady with |g| dt), and ``eps Lz`` would
-        make the flow depend on the height of the ambient above it."""
-        if self._blend_set or not self.indicator:
-            return self.gravity_blend_velocity
-        return float(np.hypot(*self.gravity)) * dt
-
-    def gravity_split(self, phi, vel, dt: float, c=None) -> tuple[np.ndarray, np.ndarray]:
-        """Gravity force of the step as ``f_0 - drag * u^{n+1}`` [N m^-3], ``drag >= 0``
-        [kg m^-3 s^-1].
-
-        The energy-consistent weight (:meth:`gravity_force`) on a face slower than the blend
-        velocity ``u_b`` is linear in the face velocity, ``phi_f = c + s (w_up - c) u/u_b``
-        (``c`` centred, ``w_up`` the upwind flux fraction for the direction ``s`` of ``u^n``). Where
-        ``-g s (w_up - c) > 0`` (e.g. a bed surface: lighter downstream) this is a drag of rate
-        ``~|g|/u_b`` (1.3e4 s^-1 for the default ``u_b = eps Lz`` with Lz = 0.15 m). Explicit, it is stable only for
-        ``|g| dt/u_b < 2``; the yield viscosity hides that in a dense pile, but where it vanishes
-        (``p -> 0``, a fluidised bed) a surface at rest oscillates with growing amplitude.
-        So that part is implicit (``drag`` joins the mass matrix); the rest (saturated
-        faces ``|u^n| >= u_b``, anti-damping faces, or ``consistent_gravity=False``) is explicit.
-        """
-        g = self.grid
-        rho_s = self.material.rho_s
-        phi = np.asarray(phi, dtype=float).reshape(g.cell_shape)
-        vel = np.asarray(vel, dtype=float)
-        gvec = np.empty(g.n_unknowns)
-        gvec[g.u_slice], gvec[g.w_slice] = self.gravity
-        centred = self.face_fraction(phi, c)
-        if not self.consistent_gravity:
-            return rho_s * gvec * centred, np.zeros(g.n_unknowns)
-        flux = g.pack_velocity(*self.transport_fluxes(phi, vel, dt, c))
-        moving = vel != 0.0
-        upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
-        u_b = self.blend_velocity(dt)
-        phi_f = centred + (upwind - centred) * np.minimum(1.0, np.abs(vel) / u_b)
-        drag = -rho_s * gvec * (upwind - centred) * np.sign(vel) / u_b
-        implicit = (np.abs(vel) < u_b) & (drag > 0.0)
-        return rho_s * gvec * np.where(implicit, centred, phi_f), np.where(implicit, drag, 0.0)
 
     # --- one step -----------------------------------------------------------------------------
     def advance(self, state: State, dt: float) -> StepReport:

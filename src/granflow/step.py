@@ -121,6 +121,13 @@ class Explicit:
     band_edge: tuple | None = None
     """Indicator surface with the velocity band: masks (cells, nodes) whose viscous stencil
     reaches a face beyond the band (:func:`band_edge`), else None."""
+    window: tuple | None = None
+    """:func:`granflow.physics.material.material_window` of ``(c^n, phi^n)`` (None: the whole grid,
+    or the threshold surface)."""
+    fluxes_n: tuple | None = None
+    """Solid fluxes of a transport with ``u^n`` (:meth:`granflow.model.Model.transport_fluxes`),
+    shared by the gravity weight and the first Picard sweep of the consistent transport (whose
+    iterate starts at ``u^n``); None if neither needs them."""
 
 
 def band_edge(ops, keep) -> tuple:
@@ -173,7 +180,10 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     iso = (model.interface_band(phi, model.isochoric_interface).ravel()
            if model.isochoric_interface else None)
     rho_n = model.inertia_density(phi)
-    f_g, drag = model.gravity_split(phi, state.vel, dt, state.c)
+    window = material_window(model.grid, state.c, phi) if state.c is not None else None
+    fluxes_n = (model.transport_fluxes(phi, state.vel, dt, state.c, window)
+                if model.consistent_gravity or model.advection is mom.Advection.CONSISTENT else None)
+    f_g, drag = model.gravity_split(phi, state.vel, dt, state.c, fluxes_n)
     adv = None
     if model.advection is mom.Advection.CONSISTENT:
         rhs_u = rho_n * state.vel / dt + f_g
@@ -206,7 +216,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
-                    band_edge=edge)
+                    band_edge=edge, window=window, fluxes_n=fluxes_n)
 
 
 def hint_viscosity(model, eta) -> np.ndarray:
@@ -217,7 +227,7 @@ def hint_viscosity(model, eta) -> np.ndarray:
     return np.maximum(eta, model.ambient.eta_a)
 
 
-def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, window):
+def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, window, fluxes=None):
     """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
     (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
     the solid fluxes ``F_k`` (:meth:`granflow.model.Model.transport_fluxes`, the fluxes only);
@@ -227,9 +237,9 @@ def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, windo
     transport, so mass and momentum move together. ``c`` the material fraction (None: threshold
     surface); ``window`` the :func:`granflow.physics.material.material_window` of ``(c, phi)``,
     the same at every sweep of a step (None: the whole grid; the indicator's one-stage fluxes
-    vanish beyond it, v1's two-stage MUSCL fluxes are not cut). Returns
-    ``(m_k, (A, div_dual F_k), rhs)``."""
-    fx, fz = model.transport_fluxes(phi, u_k, dt, c, window)
+    vanish beyond it, v1's two-stage MUSCL fluxes are not cut); ``fluxes`` those of ``u_k`` if
+    already known. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
+    fx, fz = model.transport_fluxes(phi, u_k, dt, c, window) if fluxes is None else fluxes
     A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta)
     div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
     rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
@@ -302,13 +312,13 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     changes, rel, n_negz, krylov, converged, sweeps = 0, np.inf, 0, 0, False, 0
     rho_k, flux_div, rhs_u = ex.rho_n, None, ex.rhs_u
     phi_f_n = ops.cell_to_face @ state.phi.ravel() if consistent else None
-    window_n = (material_window(g, state.c, state.phi) if consistent and state.c is not None
-                else None)
+    window_n = ex.window if consistent else None
     for sweeps in range(1, model.picard.max_sweeps + 1):
         t0 = time.perf_counter()
         if consistent:
             rho_k, flux_div, rhs_u = consistent_inertia(model, state.vel, u_k, dt, ex.rhs_u, state.phi,
-                                                        state.c, phi_f_n, window_n)
+                                                        state.c, phi_f_n, window_n,
+                                                        ex.fluxes_n if sweeps == 1 else None)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
         S_k = ops.strain_rate_norm(u_k)
         coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)
