@@ -133,7 +133,8 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "check_section_set", "check_bad_set", "check_text_number", "check_plot", "check_expression",
          "derive_expression", "derive_bad_set", "dispersion_plot", "dispersion_bad_set", "sweep_out",
          "sweep_deep", "sweep_self_base", "sweep_foreign_json", "plot_out", "plot_animate",
-         "plot_truncated", "export_out", "export_truncated", "stability_nonfinite"]
+         "plot_truncated", "export_out", "export_truncated", "stability_nonfinite",
+         "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file"]
 
 
 def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one branch per kind
@@ -153,6 +154,21 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             name = rng.choice(["summary.json", "output.nc"])
             (ctx.work / "out" / name).mkdir(parents=True)
             return run(ctx.case(), "--overwrite"), name
+        if kind == "run_long_name":  # a component longer than NAME_MAX (255 bytes on Linux)
+            name = rng.choice("abxyz") * rng.randint(256, 400)
+            head = rng.choice([["run", ctx.case(), "--out"], ["plot", str(ctx.run_dir), "--out"],
+                               ["export", "vtk", str(ctx.run_dir), "--out"], ["check", "mu_i", "--plot"]])
+            tail = TINY if head[0] == "run" else []
+            return [*head, str(ctx.work / name / "x") if rng.random() < 0.5 else str(ctx.work / name), *tail], \
+                "too long"
+        if kind == "run_figure_dir":
+            name = rng.choice(["snapshots.png", "front.png"])
+            (ctx.work / "out" / name).mkdir(parents=True)
+            return run(ctx.case(), "--overwrite", "--set", "output.figures=true"), name
+        if kind == "run_checkpoint_entry_dir":
+            entry = ctx.work / "out" / "checkpoints" / f"checkpoint_{rng.randint(0, 9):08d}.npz"
+            entry.mkdir(parents=True)
+            return run(ctx.case(), "--overwrite"), entry.name
         if kind == "run_runs_file":
             ctx.file("runs")
             return ["run", ctx.case(), *TINY], "runs"
@@ -251,6 +267,10 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
                                  f'"setup.H0" = {{ values = {_deep(rng)} }}\n')
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "nested"
             sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+            if kind == "sweep_member_file":
+                (ctx.work / "sw").mkdir()
+                (ctx.work / "sw" / "m0000").write_text("a file")
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "m0000"
             if kind == "sweep_foreign_json":
                 (ctx.work / "sw").mkdir()
                 (ctx.work / "sw" / "sweep.json").write_text(rng.choice(["{}", "[1, 2]", "not json", '{"a": 1}']))

@@ -247,7 +247,11 @@ def flatten_scalars(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]
 
 
 def _check_member_dir(member_dir: Path, member_id: str, overrides: Mapping[str, Any]) -> None:
-    """Refuse to reuse a directory that belongs to a different member definition."""
+    """Refuse to reuse a directory that belongs to a different member definition (or that is
+    not a directory)."""
+    if (member_dir.exists() or member_dir.is_symlink()) and not member_dir.is_dir():
+        raise GranflowInputError(f"{member_dir}: exists and is not a directory (the directory of "
+                                 f"member {member_id}); use a new output directory")
     path = member_dir / MEMBER_FILE
     if path.exists() or path.is_symlink():
         try:

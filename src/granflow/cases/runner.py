@@ -59,6 +59,15 @@ OUTPUT_FILE = "output.nc"
 SUMMARY_FILE = "summary.json"
 RUN_FILES = (OUTPUT_FILE, SUMMARY_FILE)
 """Files of a run directory that must be writable files (checked before the run starts)."""
+CHECKPOINT_GLOB = f"{CHECKPOINT_DIR}/*.npz"
+FIGURE_GLOB = "*.png"
+"""Entries of a run directory that a run may overwrite (checkpoints; figures with
+``output.figures``): an existing one that is not a regular file is refused before the run."""
+
+
+def run_file_globs(config: CaseConfig) -> tuple[str, ...]:
+    """The patterns of :data:`CHECKPOINT_GLOB` and :data:`FIGURE_GLOB` that apply to ``config``."""
+    return (CHECKPOINT_GLOB, FIGURE_GLOB) if config.output.figures else (CHECKPOINT_GLOB,)
 REST_SPEED_FACTOR = 10.0
 """Default rest speed = REST_SPEED_FACTOR eps Lz [m s^-1] (eps Lz is the creep speed scale)."""
 EVERY_STEP = 1
@@ -132,7 +141,7 @@ class CaseRun:
         self.config = config
         self.case = CASES.get(config.case.name)
         self.directory = check_directory(directory, "output directory", files=RUN_FILES,
-                                         subdirs=(CHECKPOINT_DIR,))
+                                         subdirs=(CHECKPOINT_DIR,), file_globs=run_file_globs(config))
         self.output_path = self.directory / OUTPUT_FILE
         if restart is None and self.output_path.exists() and not overwrite:
             raise GranflowInputError(f"{self.output_path} exists (an earlier run); write this run elsewhere "
