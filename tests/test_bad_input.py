@@ -189,3 +189,22 @@ def test_truncated_netcdf_is_refused_in_every_format(tmp_path, fmt):
     else:
         with pytest.raises(GranflowInputError, match=r"truncated: .*\(3 records, only the first 2 complete\)"):
             check_complete(cut)
+
+
+def test_derivation_time_budget_is_bad_input_and_a_normal_derivation_fits(monkeypatch):
+    from granflow.rheology import derive
+
+    assert derive.derive_dilatancy("0.38 + 0.27*I/(I + 0.3)").f is not None
+    monkeypatch.setattr(derive, "DERIVE_TIME_BUDGET_S", 0.05)
+    with pytest.raises(GranflowInputError, match="did not finish within 0.05 s"):
+        derive.derive_dilatancy("(0.4 + I)**40")
+
+
+@pytest.mark.parametrize("expr, fragment", [("sqrt(-1)", "not real"), ("exp(1000)", "exp(1000)"),
+                                            ("I**1e10", "exponent"), ("(1 + I)**200", "exponent")])
+def test_expressions_sympy_cannot_handle_are_refused_fast(expr, fragment):
+    from granflow.rheology.derive import parse_yield_function
+
+    with pytest.raises(GranflowInputError, match=fragment.replace("(", r"\(").replace(")", r"\)")):
+        parse_yield_function(expr)
+    assert parse_yield_function("(1 + I)**3 + exp(-1000)").free_symbols

@@ -91,7 +91,10 @@ UNPHYSICAL = [("material.rho_s", [1e300, 1e6, 1.0, 1e-3]), ("gravity.g", [1e300,
               ("material.eta_f", [1e300, 100.0, 1e-12]), ("material.p_atm", [1e300, 1e12, 0.5]),
               ("material.rho_f0", [1e300, 1e5, 1e-9]), ("material.d", [1e-9, 5e-7])]
 NEGATIVE_YIELD = ["-1 - I", "-0.1*I", "0.3 - 2*I", "-phi", "0.1 - I^2", "-(0.4 + 0.2*I)", "I - 1"]
-NONFINITE = ["I/0", "1e308**2", "1/(I - I)", "10**400", "0*I + 1e400", "phi/0 + 1", "zoo", "oo + I"]
+NONFINITE = ["I/0", "1e308**2", "1/(I - I)", "10**400", "0*I + 1e400", "phi/0 + 1", "zoo", "oo + I",
+             "sqrt(-1)", "exp(1000)", "E**1000*I", "pi**700 + I", "I**1e10", "(1 + I)**200", "0.4 + (-2)**0.5"]
+ON_LINE_NONFINITE = ["exp(1000*I)", "1/I", "I**-1", "0.4 + 1/(I - 0.5)**2"]
+"""Finite expressions whose value on the equilibrium line is not (run only: ``check`` reports it)."""
 PHYSICS = ['gas.law="linear"', "material.rho_s=2600.0", 'walls.bottom="free_slip"', "gravity.slope_deg=5.0",
            "closure.delta_deg=30.0", "material.eta_f=2e-5", "setup.H0=0.09", "material.phi_max=0.61"]
 
@@ -202,7 +205,7 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             return run(ctx.case(), "--set", "case.allow_unphysical=true",
                        "--set", f"material.d={rng.uniform(0.1, 0.9)!r}"), "material.d"
         if kind in ("run_negative_yield", "run_nonfinite_yield"):
-            expr = rng.choice(NEGATIVE_YIELD if kind == "run_negative_yield" else NONFINITE)
+            expr = rng.choice(NEGATIVE_YIELD if kind == "run_negative_yield" else NONFINITE + ON_LINE_NONFINITE)
             text = EXAMPLE_TEXT.replace('name = "drucker_prager"', 'name = "generic"').replace(
                 "delta_deg = 26.74", f'expression = "{expr}"')
             return run(ctx.case(text)), "closure.expression"

@@ -43,8 +43,9 @@ def common_problems(cfg) -> list[tuple[str, str]]:
 
 
 def yield_problems(cfg) -> list[tuple[str, str]]:
-    """The yield function Z must be >= 0 on the equilibrium line phi = phi_eq(I) (a negative Z
-    is a negative friction coefficient: the solver would only count the cells where it is)."""
+    """The yield function Z must be finite and >= 0 on the equilibrium line phi = phi_eq(I) (a
+    negative Z is a negative friction coefficient: the solver would only count the cells where it
+    is; a non-finite one, e.g. ``exp(1000*I)`` at I = 10 or ``1/I`` at rest, fails the run's steps)."""
     import numpy as np
 
     closure = cfg.make_closure()
@@ -53,10 +54,15 @@ def yield_problems(cfg) -> list[tuple[str, str]]:
         phi = np.asarray(closure.equilibrium.phi_eq(I), dtype=float)
         keep = phi > 0
         Z = np.asarray(closure.Z(phi[keep], I[keep]), dtype=float)
+    key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
+    nonfinite = np.flatnonzero(np.isnan(Z) | (Z == np.inf))
+    if nonfinite.size:
+        k = nonfinite[0]
+        return [(key, f"the yield function is not finite on the equilibrium line: Z(phi_eq(I), I) = "
+                      f"{Z[k]:.3g} at I = {I[keep][k]:.3g}")]
     negative = np.flatnonzero(Z < 0)
     if not negative.size:
         return []
     k = negative[0]
-    key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
     return [(key, f"the yield function is negative on the equilibrium line: Z(phi_eq(I), I) = "
                   f"{Z[k]:.3g} at I = {I[keep][k]:.3g} (a negative friction coefficient)")]
