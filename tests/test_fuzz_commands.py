@@ -117,6 +117,9 @@ def _checkpoint_edit(rng: random.Random) -> tuple[str, Callable]:
         ("state.p", arr("state.p", i, -np.inf)), ("state.p_f", arr("state.p_f", i, np.nan)),
         ("state.t", scal("state.t", float("nan"))), ("state.t", scal("state.t", -1.0)),
         ("state.t", scal("state.t", float("inf"))), ("state.step", scal("state.step", -3)),
+        ("state.t", scal("state.t", 10.0 ** rng.uniform(0, 300))),  # beyond stop_time (looped for ever)
+        ("state.p", arr("state.p", i, -rng.uniform(1.0, 1e9))), ("state.c", arr("state.c", i, rng.uniform(1.01, 9))),
+        ("state.c", arr("state.c", i, -rng.uniform(0.01, 9))),
         ("case", lambda a, s, m: m.__setitem__("case", "sheared_layer")),
         ("grid", lambda a, s, m: m.__setitem__("grid", [11, 6, 0.4, 0.15])),
     ])
@@ -137,7 +140,11 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "derive_expression", "derive_bad_set", "dispersion_plot", "dispersion_bad_set", "sweep_out",
          "sweep_deep", "sweep_self_base", "sweep_foreign_json", "plot_out", "plot_animate",
          "plot_truncated", "export_out", "export_truncated", "stability_nonfinite",
-         "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file"]
+         "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
+         "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers"]
+INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
+            ("numerics.ambient.velocity_band", 10**6)]
+"""Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
 
 
 def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one branch per kind
@@ -209,6 +216,11 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             text = EXAMPLE_TEXT.replace('name = "drucker_prager"', 'name = "generic"').replace(
                 "delta_deg = 26.74", f'expression = "{expr}"')
             return run(ctx.case(text)), "closure.expression"
+        if kind == "run_output_interval":
+            return run(ctx.case(), "--set", f"output.interval={10.0 ** rng.uniform(-300, -8)!r}"), "output.interval"
+        if kind == "run_int_caps":
+            key, most = rng.choice(INT_CAPS)
+            return run(ctx.case(), "--set", f"{key}={rng.randint(most + 1, 2**63 - 1)}"), key
         if kind == "run_dt_budget":
             dt = 10.0 ** rng.uniform(-300, -7.2)
             return run(ctx.case(), "--set", f"time.dt_max={dt!r}", "--set", "time.stop_time=1.5"), "time.dt_max"
@@ -270,6 +282,23 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
                                  f'"setup.H0" = {{ values = {_deep(rng)} }}\n')
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "nested"
             sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+            if kind == "sweep_too_many":
+                how = rng.choice(["range", "grid", "lhs"])
+                if how == "range":
+                    param = f'[parameters]\n"setup.H0" = {{ range = [0.05, 0.1], n = {rng.randint(10001, 10**9)} }}\n'
+                elif how == "grid":
+                    k = rng.randint(101, 300)
+                    param = ("[parameters]\n" + f'"setup.H0" = {{ range = [0.05, 0.1], n = {k} }}\n'
+                             + f'"setup.L0" = {{ range = [0.05, 0.1], n = {k} }}\n')
+                else:
+                    param = f'samples = {rng.randint(10001, 10**9)}\nseed = 1\n[parameters]\n"setup.H0" = {{ lhs = [0.05, 0.1] }}\n'
+                    sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\nmode = "lhs"\n{param}')
+                    return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "10000"
+                sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "10000"
+            if kind == "sweep_workers":
+                n = 4 * (os.cpu_count() or 1) + rng.randint(1, 10**6)
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw"), "--workers", str(n)], "--workers"
             if kind == "sweep_member_file":
                 (ctx.work / "sw").mkdir()
                 (ctx.work / "sw" / "m0000").write_text("a file")

@@ -23,6 +23,7 @@ import csv
 import io
 import itertools
 import json
+import math
 import time
 import traceback
 from collections.abc import Callable, Mapping
@@ -47,6 +48,9 @@ MEMBER_FILE = "member.json"
 SPEC_FILE = "sweep.json"
 TABLE_FILE = "sweep_summary.csv"
 #: Minimum number of digits of member ids (m0000).
+MAX_MEMBERS = 10_000
+"""Most members of one sweep (a guard against ``n = 1000000000``, which never finished making the
+member list); split a larger study into several sweeps."""
 ID_DIGITS = 4
 ID_PREFIX = "m"
 #: Default number of workers of the local cluster.
@@ -67,7 +71,7 @@ class ParameterRange(Params):
 
     values: list[Any] | None = Field(default=None, min_length=1)
     range: tuple[float, float] | None = None
-    n: int | None = Field(default=None, ge=1)
+    n: int | None = Field(default=None, ge=1, le=MAX_MEMBERS)
     lhs: tuple[float, float] | None = None
 
     @model_validator(mode="after")
@@ -117,7 +121,7 @@ class SweepSpec(Params):
     base: dict[str, Any] = Field(default_factory=dict)
     parameters: dict[str, ParameterRange] = Field(min_length=1)
     mode: Literal["grid", "zip", "lhs"] = "grid"
-    samples: int | None = Field(default=None, ge=1)
+    samples: int | None = Field(default=None, ge=1, le=MAX_MEMBERS)
     seed: int | None = None
 
     @model_validator(mode="after")
@@ -135,6 +139,12 @@ class SweepSpec(Params):
                                  "mode = 'lhs'")
             if self.samples is not None or self.seed is not None:
                 raise ValueError("'samples' and 'seed' apply to mode 'lhs' only")
+        if self.mode == "grid":
+            count = math.prod(len(p.values) if p.values is not None else p.n
+                              for p in self.parameters.values())
+            if count > MAX_MEMBERS:
+                raise ValueError(f"mode 'grid' makes {count} members, more than {MAX_MEMBERS} "
+                                 "(granflow.sweep.MAX_MEMBERS); split the sweep")
         if self.mode == "zip":
             lengths = {k: len(p.points()) for k, p in self.parameters.items()}
             if len(set(lengths.values())) != 1:

@@ -6,8 +6,8 @@ the :data:`PHYSICS_SECTIONS` of its effective configuration (``meta["config_effe
 equal those of the case being run -- a mu(I) checkpoint continued with Drucker-Prager, or a
 fluidised one continued dry, is refused, naming the keys that differ. The time, output and
 numerics options may change (the latter with a warning that the restart is not bit for bit). Its
-state must be sane: a finite, non-negative time and step, finite fields and phi within
-[0, phi_max (1 + :data:`PHI_TOLERANCE`)], so that a corrupt or hand-edited checkpoint is bad input
+state must be sane: a finite, non-negative time not beyond ``time.stop_time`` and step, finite
+fields, phi within [0, phi_max (1 + :data:`PHI_TOLERANCE`)], p >= 0 and c within [0, 1], so that a corrupt or hand-edited checkpoint is bad input
 (exit 2) rather than a step failure later.
 """
 from __future__ import annotations
@@ -28,6 +28,9 @@ PHYSICS_SECTIONS = ("material", "closure", "equilibrium", "gas", "gravity", "wal
 """Sections of the effective configuration that define the physics of a run."""
 PHI_TOLERANCE = 1e-6
 """Relative overshoot of phi_max accepted in a checkpoint's phi (the solver clips to phi_max)."""
+NEGATIVE_TOLERANCE = 1e-9
+"""Relative undershoot (of the largest magnitude) below 0 accepted in a checkpoint's p, and below
+0 or above 1 in its material fraction c (the solver keeps p >= 0 and c in [0, 1])."""
 MAX_DIFFERENCES = 3
 """Differing keys named in the message."""
 STATE_PREFIX = "state."
@@ -79,8 +82,9 @@ def physics_differences(meta: dict[str, Any], config) -> list[str]:
 
 
 def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, Any],
-                phi_max: float) -> None:
-    """Refuse a checkpoint whose state is not finite or whose phi is outside [0, phi_max].
+                phi_max: float, stop_time: float | None = None) -> None:
+    """Refuse a checkpoint whose state is not finite, whose phi is outside [0, phi_max], p < 0,
+    c outside [0, 1], or whose time is beyond ``stop_time`` (nothing left to run).
 
     Raises
     ------
@@ -91,6 +95,9 @@ def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, An
     t, step = scalars.get("state.t"), scalars.get("state.step")
     if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t < 0:
         raise GranflowInputError(f"{where}: state.t = {t!r} is not a finite time >= 0")
+    if stop_time is not None and t > stop_time:
+        raise GranflowInputError(f"{where}: state.t = {t:g} s is beyond time.stop_time = {stop_time:g} s "
+                                 "(nothing to run); raise time.stop_time to continue the run")
     if isinstance(step, bool) or not isinstance(step, int) or step < 0:
         raise GranflowInputError(f"{where}: state.step = {step!r} is not a step number >= 0")
     for name, a in arrays.items():
@@ -108,6 +115,15 @@ def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, An
         if lo < 0 or hi > phi_max * (1 + PHI_TOLERANCE):
             raise GranflowInputError(f"{where}: state.phi spans [{lo:g}, {hi:g}], outside "
                                      f"[0, material.phi_max = {phi_max:g}]")
+    for name, upper in (("p", None), ("c", 1.0)):
+        a = arrays.get(f"{STATE_PREFIX}{name}")
+        if a is None or not a.size:
+            continue
+        lo, hi = float(a.min()), float(a.max())
+        slack = NEGATIVE_TOLERANCE * max(1.0, abs(lo), abs(hi))
+        if lo < -slack or (upper is not None and hi > upper + slack):
+            bounds = f"[0, {upper:g}]" if upper is not None else ">= 0"
+            raise GranflowInputError(f"{where}: state.{name} spans [{lo:g}, {hi:g}], not {bounds}")
 
 
 def check_checkpoint(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, Any],
@@ -126,4 +142,4 @@ def check_checkpoint(path: Path, arrays: dict[str, np.ndarray], scalars: dict[st
         raise GranflowInputError(f"--restart {path}: the checkpoint is of other physics: "
                                  + "; ".join(diff[:MAX_DIFFERENCES]) + more
                                  + " (restart with the case file and --set options of the original run)")
-    check_state(path, arrays, scalars, phi_max)
+    check_state(path, arrays, scalars, phi_max, config.time.stop_time)

@@ -46,6 +46,8 @@ _LAZY = {
     "MAX_CELLS": "granflow.config.schema",
     "MAX_SLOPE_DEG": "granflow.config.schema",
     "MAX_STEPS": "granflow.config.schema",
+    "MAX_RECORDS": "granflow.config.schema",
+    "MAX_RETRIES": "granflow.config.schema",
     "MaterialSection": "granflow.config.schema",
     "NumericsSection": "granflow.config.schema",
     "OUTPUT_FIELDS": "granflow.config.schema",
@@ -73,7 +75,7 @@ __getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
 
 __all__ = [
     "COLUMN_KEYS", "DEFAULT_GRAVITY", "EQUILIBRIUM_I", "EXTRA_SET_ENV", "KEY_SEP", "MAX_CELLS",
-    "MAX_SLOPE_DEG", "MAX_STEPS", "OUTPUT_FIELDS", "PHYSICAL_RANGES",
+    "MAX_SLOPE_DEG", "MAX_STEPS", "MAX_RECORDS", "MAX_RETRIES", "OUTPUT_FIELDS", "PHYSICAL_RANGES",
     "AmbientSection", "CaseCatalogue", "CaseConfig", "CaseSection", "ClosureSection", "EmptySetup",
     "EquilibriumSection", "GasLawName", "GasSection", "GravitySection", "GridSection",
     "MaterialSection", "NumericsSection", "OpenSection", "OutputSection", "PicardSection",

@@ -4,7 +4,14 @@ a yield function that is not negative on the equilibrium line. Each problem is `
 """
 from __future__ import annotations
 
-from granflow.config.schema import COLUMN_KEYS, EQUILIBRIUM_I, KEY_SEP, MAX_STEPS, PHYSICAL_RANGES
+from granflow.config.schema import (
+    COLUMN_KEYS,
+    EQUILIBRIUM_I,
+    KEY_SEP,
+    MAX_RECORDS,
+    MAX_STEPS,
+    PHYSICAL_RANGES,
+)
 
 
 def common_problems(cfg) -> list[tuple[str, str]]:
@@ -22,6 +29,12 @@ def common_problems(cfg) -> list[tuple[str, str]]:
                                    f"budget of {MAX_STEPS} (granflow.config.MAX_STEPS): the run could "
                                    "not reach stop_time; raise time.dt_max, or set time.max_steps to "
                                    "run part of it"))
+    interval = cfg.output.interval
+    if t.stop_time / interval > MAX_RECORDS:
+        out.append(("output.interval", f"stop_time / interval = {t.stop_time:g} s / {interval:g} s = "
+                                       f"{t.stop_time / interval:.3g} records, more than "
+                                       f"{MAX_RECORDS} (granflow.config.MAX_RECORDS; the output "
+                                       "times also cut the time step); raise output.interval"))
     if not cfg.case.allow_unphysical:
         for name, (lo, hi, unit) in PHYSICAL_RANGES.items():
             section, field = name.split(KEY_SEP)

@@ -58,6 +58,11 @@ MAX_CELLS = 4_000_000
 MAX_STEPS = 10_000_000
 """Step budget without ``time.max_steps``: ``stop_time / dt_max`` (a lower bound of the number of
 steps) above it is refused (a guard against ``dt_max = 1e-300``, which would step for ever)."""
+MAX_RETRIES = 50
+"""Most dt halvings of one step (dt_max / 2**50 is ~1e-15 dt_max; more would halve towards 0)."""
+MAX_RECORDS = 100_000
+"""Most NetCDF records of a run, ``stop_time / output.interval`` (each record holds every field;
+the output times also cut the time step, so ``interval = 1e-12`` stepped for ever)."""
 PHYSICAL_RANGES = {
     "material.d": (1e-6, 0.1, "m"),
     "material.rho_s": (10.0, 3.0e4, "kg m^-3"),
@@ -168,9 +173,10 @@ class TimeSection(Section):
     stop_time: float = Field(0.5, gt=0, description="final time [s]")
     cfl: float = Field(0.3, gt=0, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
     dt_max: float = Field(1.0e-3, gt=0, description="largest time step [s]")
-    max_retries: int = Field(6, ge=0, description="dt halvings allowed for one step [-]")
-    max_steps: int | None = Field(None, ge=1, description="stop after this many steps in total, "
-                                  "counted from t = 0 [-] (default: no limit)")
+    max_retries: int = Field(6, ge=0, le=MAX_RETRIES, description="dt halvings allowed for one step [-]")
+    max_steps: int | None = Field(None, ge=1, le=MAX_STEPS, description="stop after this many steps in "
+                                  "total, counted from t = 0, at most granflow.config.MAX_STEPS [-] "
+                                  "(default: no limit)")
     stop_at_rest: float | None = Field(None, gt=0, description="end the run once the flow has been "
                                        "at rest (t_rest, output.rest_speed) for this long [s] "
                                        "(default: run to stop_time)")
