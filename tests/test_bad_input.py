@@ -208,3 +208,19 @@ def test_expressions_sympy_cannot_handle_are_refused_fast(expr, fragment):
     with pytest.raises(GranflowInputError, match=fragment.replace("(", r"\(").replace(")", r"\)")):
         parse_yield_function(expr)
     assert parse_yield_function("(1 + I)**3 + exp(-1000)").free_symbols
+
+
+def test_memory_limit_environment_variable_overrides_the_available_memory(monkeypatch):
+    cfg = _cfg(grid={"nx": 200, "nz": 200})  # estimate 0.7 GB
+    monkeypatch.setattr(memory, "available_memory", lambda: 100_000_000_000)
+    memory.check_memory(cfg)
+    monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, "0.5")
+    with pytest.raises(GranflowInputError, match=r"0\.7 GB .*0\.5 GB of the limit GRANFLOW_MEMORY_LIMIT"):
+        memory.check_memory(cfg)
+    monkeypatch.setattr(memory, "available_memory", lambda: 1_000_000)  # a small machine, raised limit
+    monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, "1000")
+    memory.check_memory(cfg)
+    for bad in ("lots", "-1", "nan", "0"):
+        monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, bad)
+        with pytest.raises(GranflowInputError, match="GRANFLOW_MEMORY_LIMIT"):
+            memory.check_memory(cfg)
