@@ -141,7 +141,8 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "sweep_deep", "sweep_self_base", "sweep_foreign_json", "plot_out", "plot_animate",
          "plot_truncated", "export_out", "export_truncated", "stability_nonfinite",
          "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
-         "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers"]
+         "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers",
+         "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated"]
 INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
             ("numerics.ambient.velocity_band", 10**6)]
 """Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
@@ -221,6 +222,15 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
         if kind == "run_int_caps":
             key, most = rng.choice(INT_CAPS)
             return run(ctx.case(), "--set", f"{key}={rng.randint(most + 1, 2**63 - 1)}"), key
+        if kind == "run_fields_repeated":
+            field = rng.choice(["phi", "u", "p", "S"])
+            return run(ctx.case(), "--set", f'output.fields=["{field}", "w", "{field}"]'), "output.fields"
+        if kind == "run_device_file":  # a case or sweep file that never ends
+            return [rng.choice(["run", "sweep"]), "/dev/zero", "--out", str(ctx.work / "o")], "/dev/zero"
+        if kind == "check_bool_number":
+            key, closure = rng.choice([("mu1", "mu_i"), ("delta_deg", "drucker_prager"), ("material.d", "mu_i"),
+                                       ("material.rho_s", "drucker_prager"), ("equilibrium.delta_phi", "mu_i")])
+            return ["check", closure, "--set", f"{key}={rng.choice(['true', 'false'])}"], key.split(".")[-1]
         if kind == "run_dt_budget":
             dt = 10.0 ** rng.uniform(-300, -7.2)
             return run(ctx.case(), "--set", f"time.dt_max={dt!r}", "--set", "time.stop_time=1.5"), "time.dt_max"
@@ -299,6 +309,19 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             if kind == "sweep_workers":
                 n = 4 * (os.cpu_count() or 1) + rng.randint(1, 10**6)
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw"), "--workers", str(n)], "--workers"
+            if kind == "sweep_strict_types":
+                what = rng.choice(["n", "samples", "seed"])
+                if what == "n":
+                    value = rng.choice(["true", "2.0", "3.5", '"2"'])
+                    param = f'[parameters]\n"setup.H0" = {{ range = [0.05, 0.1], n = {value} }}\n'
+                    sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+                else:
+                    value = rng.choice(["true", "2.0", f"-{rng.randint(1, 10**6)}"] if what == "seed"
+                                       else ["true", "2.0", "0"])
+                    other = "samples = 2" if what == "seed" else "seed = 1"
+                    sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\nmode = "lhs"\n{what} = {value}\n'
+                                     f'{other}\n[parameters]\n"setup.H0" = {{ lhs = [0.05, 0.1] }}\n')
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], what
             if kind == "sweep_member_file":
                 (ctx.work / "sw").mkdir()
                 (ctx.work / "sw" / "m0000").write_text("a file")

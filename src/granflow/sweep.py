@@ -122,7 +122,7 @@ class SweepSpec(Params):
     parameters: dict[str, ParameterRange] = Field(min_length=1)
     mode: Literal["grid", "zip", "lhs"] = "grid"
     samples: int | None = Field(default=None, ge=1, le=MAX_MEMBERS)
-    seed: int | None = None
+    seed: int | None = Field(default=None, ge=0)
 
     @model_validator(mode="after")
     def _consistent(self) -> SweepSpec:

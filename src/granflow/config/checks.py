@@ -51,6 +51,9 @@ def common_problems(cfg) -> list[tuple[str, str]]:
             and cfg.numerics.surface != "indicator"):
         out.append(("output.fields", f'"c" (the material fraction) exists only with numerics.surface = '
                                      f'"indicator" (got {cfg.numerics.surface!r})'))
+    repeated = sorted({f for f in cfg.output.fields if cfg.output.fields.count(f) > 1})
+    if repeated:
+        out.append(("output.fields", f"{repeated} given more than once"))
     out += yield_problems(cfg)
     return out
 
