@@ -89,7 +89,11 @@ NUMERIC = [("material", "d"), ("material", "rho_s"), ("material", "delta_phi"), 
            ("gravity", "g"), ("time", "stop_time")]
 UNPHYSICAL = [("material.rho_s", [1e300, 1e6, 1.0, 1e-3]), ("gravity.g", [1e300, 1e4, 301.0]),
               ("material.eta_f", [1e300, 100.0, 1e-12]), ("material.p_atm", [1e300, 1e12, 0.5]),
-              ("material.rho_f0", [1e300, 1e5, 1e-9]), ("material.d", [1e-9, 5e-7])]
+              ("material.rho_f0", [1e300, 1e5, 1e-9]), ("material.d", [1e-9, 5e-7]),
+              ("material.c_I", [1e300, 0.01, 50.0]), ("numerics.eps", [1e300, 1e5, 1e-12]),
+              ("numerics.delta_p", [1e300, 1e7, 1e-12]), ("numerics.ambient.rho_a", [1e300, 1e5, 1e-8]),
+              ("numerics.ambient.eta_a", [1e300, 1e5, 1e-12]), ("numerics.ambient.eta_b", [1e300, 1e5]),
+              ("numerics.gravity_blend_velocity", [1e300, 1e4, 1e-15])]
 NEGATIVE_YIELD = ["-1 - I", "-0.1*I", "0.3 - 2*I", "-phi", "0.1 - I^2", "-(0.4 + 0.2*I)", "I - 1"]
 NONFINITE = ["I/0", "1e308**2", "1/(I - I)", "10**400", "0*I + 1e400", "phi/0 + 1", "zoo", "oo + I",
              "sqrt(-1)", "exp(1000)", "E**1000*I", "pi**700 + I", "I**1e10", "(1 + I)**200", "0.4 + (-2)**0.5"]

@@ -54,6 +54,7 @@ _LAZY = {
     "OpenSection": "granflow.config.schema",
     "OutputSection": "granflow.config.schema",
     "PHYSICAL_RANGES": "granflow.config.schema",
+    "NUMERICS_RANGES": "granflow.config.schema",
     "PicardSection": "granflow.config.schema",
     "Section": "granflow.config.schema",
     "TimeSection": "granflow.config.schema",
@@ -75,7 +76,7 @@ __getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
 
 __all__ = [
     "COLUMN_KEYS", "DEFAULT_GRAVITY", "EQUILIBRIUM_I", "EXTRA_SET_ENV", "KEY_SEP", "MAX_CELLS",
-    "MAX_SLOPE_DEG", "MAX_STEPS", "MAX_RECORDS", "MAX_RETRIES", "OUTPUT_FIELDS", "PHYSICAL_RANGES",
+    "MAX_SLOPE_DEG", "MAX_STEPS", "MAX_RECORDS", "MAX_RETRIES", "OUTPUT_FIELDS", "PHYSICAL_RANGES", "NUMERICS_RANGES",
     "AmbientSection", "CaseCatalogue", "CaseConfig", "CaseSection", "ClosureSection", "EmptySetup",
     "EquilibriumSection", "GasLawName", "GasSection", "GravitySection", "GridSection",
     "MaterialSection", "NumericsSection", "OpenSection", "OutputSection", "PicardSection",

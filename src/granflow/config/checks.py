@@ -10,6 +10,7 @@ from granflow.config.schema import (
     KEY_SEP,
     MAX_RECORDS,
     MAX_STEPS,
+    NUMERICS_RANGES,
     PHYSICAL_RANGES,
 )
 
@@ -36,12 +37,15 @@ def common_problems(cfg) -> list[tuple[str, str]]:
                                        f"{MAX_RECORDS} (granflow.config.MAX_RECORDS; the output "
                                        "times also cut the time step); raise output.interval"))
     if not cfg.case.allow_unphysical:
-        for name, (lo, hi, unit) in PHYSICAL_RANGES.items():
-            section, field = name.split(KEY_SEP)
-            value = getattr(getattr(cfg, section), field)
-            if not lo <= value <= hi:
-                out.append((name, f"{value:g} {unit} is outside the physical range [{lo:g}, {hi:g}] "
-                                  f"{unit} (set case.allow_unphysical = true for an unusual study)"))
+        for name, (lo, hi, unit) in {**PHYSICAL_RANGES, **NUMERICS_RANGES}.items():
+            value = cfg
+            for part in name.split(KEY_SEP):
+                value = getattr(value, part)
+            if value is not None and not lo <= value <= hi:
+                kind = "numerical" if name in NUMERICS_RANGES else "physical"
+                u = "" if unit == "-" else f" {unit}"
+                out.append((name, f"{value:g}{u} is outside the {kind} range [{lo:g}, {hi:g}]{u} "
+                                  "(set case.allow_unphysical = true for an unusual study)"))
     column = [(f"setup.{k}", getattr(cfg.setup, k)) for k in COLUMN_KEYS if hasattr(cfg.setup, k)]
     column_key, height = column[0] if column else ("grid.Lz", cfg.grid.Lz)
     if isinstance(height, float) and not cfg.material.d < height:

@@ -70,10 +70,22 @@ PHYSICAL_RANGES = {
     "material.p_atm": (1.0, 1e9, "Pa"),
     "material.rho_f0": (1e-4, 3.0e3, "kg m^-3"),
     "gravity.g": (0.0, 300.0, "m s^-2"),
+    "material.c_I": (0.1, 10.0, "-"),
 }
 """Physical range [lo, hi] of the dimensional parameters (grains from 1 um powders to 10 cm
 boulders, solids from aerogels to tungsten, gases to liquids, gravity up to 30 g); a value outside
 is refused unless ``case.allow_unphysical = true``."""
+NUMERICS_RANGES = {
+    "numerics.eps": (1e-9, 1e4, "s^-1"),
+    "numerics.delta_p": (1e-9, 1e6, "Pa"),
+    "numerics.gravity_blend_velocity": (1e-12, 1e3, "m s^-1"),
+    "numerics.ambient.rho_a": (1e-6, 1e4, "kg m^-3"),
+    "numerics.ambient.eta_a": (1e-9, 1e4, "Pa s"),
+    "numerics.ambient.eta_b": (0.0, 1e4, "Pa s"),
+}
+"""Range [lo, hi] of the dimensional numerical parameters, many orders of magnitude around the
+defaults (``eps = 1e300`` or ``eta_a = 1e300`` only failed the first step, exit 1); a value
+outside is refused unless ``case.allow_unphysical = true``."""
 COLUMN_KEYS = ("H0", "h0", "H")
 """``[setup]`` keys of the initial column or layer height, compared with ``material.d``."""
 EQUILIBRIUM_I = (0.0, 10.0)
@@ -99,8 +111,9 @@ class CaseSection(Section):
     """``[case]``."""
 
     name: str = Field(description="case registry key (granflow list cases) [-]")
-    allow_unphysical: bool = Field(False, description="accept material and gravity parameters "
-                                   "outside the physical ranges of granflow.config.PHYSICAL_RANGES "
+    allow_unphysical: bool = Field(False, description="accept material, gravity and numerical "
+                                   "parameters outside the ranges of granflow.config.PHYSICAL_RANGES "
+                                   "and NUMERICS_RANGES "
                                    "(an unusual study, e.g. dimensionless units) [-]")
 
 
