@@ -146,7 +146,8 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "plot_truncated", "export_out", "export_truncated", "stability_nonfinite",
          "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
          "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers",
-         "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated"]
+         "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated",
+         "run_deep_key", "sweep_deep_key"]
 INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
             ("numerics.ambient.velocity_band", 10**6)]
 """Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
@@ -226,6 +227,10 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
         if kind == "run_int_caps":
             key, most = rng.choice(INT_CAPS)
             return run(ctx.case(), "--set", f"{key}={rng.randint(most + 1, 2**63 - 1)}"), key
+        if kind == "run_deep_key":  # a dotted --set key of hundreds of parts (RecursionError)
+            head = rng.choice(["closure", "equilibrium", "grid", "setup", "q"])
+            key = head + ".a" * rng.randint(17, 3000)
+            return run(ctx.case(), "--set", f"{key}={rng.choice(['1', '0.5', 'x'])}"), "parts"
         if kind == "run_fields_repeated":
             field = rng.choice(["phi", "u", "p", "S"])
             return run(ctx.case(), "--set", f'output.fields=["{field}", "w", "{field}"]'), "output.fields"
@@ -313,6 +318,10 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             if kind == "sweep_workers":
                 n = 4 * (os.cpu_count() or 1) + rng.randint(1, 10**6)
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw"), "--workers", str(n)], "--workers"
+            if kind == "sweep_deep_key":
+                key = rng.choice(["closure", "setup", "material"]) + ".a" * rng.randint(17, 3000)
+                sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n[parameters]\n"{key}" = {{ values = [1.0] }}\n')
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "parts"
             if kind == "sweep_strict_types":
                 what = rng.choice(["n", "samples", "seed"])
                 if what == "n":

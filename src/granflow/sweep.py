@@ -37,6 +37,7 @@ from pydantic import Field, ValidationError, model_validator
 from granflow.errors import GranflowInputError
 from granflow.output.summary import atomic_write, jsonable, write_json_atomic
 from granflow.params import Params, format_validation_error
+from granflow.safe_toml import MAX_NESTING
 
 #: A member function: (full configuration, its output directory) -> summary (JSON-able dict).
 MemberFunction = Callable[[dict[str, Any], Path], Mapping[str, Any]]
@@ -152,6 +153,9 @@ class SweepSpec(Params):
         for key in self.parameters:
             if not all(key.split(KEY_SEP)):
                 raise ValueError(f"bad parameter key {key!r}")
+            if len(key.split(KEY_SEP)) > MAX_NESTING:
+                raise ValueError(f"parameter key {key[:40]!r}... of {len(key.split(KEY_SEP))} parts; "
+                                 f"tables are nested at most {MAX_NESTING} levels deep")
             apply_overrides(self.base, {key: None})  # unknown section -> error now, not per member
         return self
 
