@@ -124,6 +124,8 @@ def _checkpoint_edit(rng: random.Random) -> tuple[str, Callable]:
         ("state.t", scal("state.t", 10.0 ** rng.uniform(0, 300))),  # beyond stop_time (looped for ever)
         ("state.p", arr("state.p", i, -rng.uniform(1.0, 1e9))), ("state.c", arr("state.c", i, rng.uniform(1.01, 9))),
         ("state.c", arr("state.c", i, -rng.uniform(0.01, 9))),
+        ("schedule.output", scal("schedule.output", rng.choice([float("nan"), -rng.uniform(1e-3, 1e300)]))),
+        ("totals.clipped_mass", scal("totals.clipped_mass", rng.choice([float("nan"), float("inf")]))),
         ("case", lambda a, s, m: m.__setitem__("case", "sheared_layer")),
         ("grid", lambda a, s, m: m.__setitem__("grid", [11, 6, 0.4, 0.15])),
     ])
@@ -147,7 +149,7 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
          "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers",
          "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated",
-         "run_deep_key", "sweep_deep_key"]
+         "run_deep_key", "sweep_deep_key", "run_restart_output"]
 INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
             ("numerics.ambient.velocity_band", 10**6)]
 """Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
@@ -227,6 +229,24 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
         if kind == "run_int_caps":
             key, most = rng.choice(INT_CAPS)
             return run(ctx.case(), "--set", f"{key}={rng.randint(most + 1, 2**63 - 1)}"), key
+        if kind == "run_restart_output":  # continue a run whose output.nc is not a whole granflow output
+            out = ctx.work / "out"
+            shutil.copytree(ctx.run_dir, out)
+            nc = out / "output.nc"
+            how = rng.choice(["truncate", "junk", "empty", "foreign"])
+            if how == "truncate":
+                os.truncate(nc, rng.randint(100, nc.stat().st_size - 1))
+            elif how == "junk":
+                nc.write_bytes(b"CDF\x02" + bytes(rng.randrange(256) for _ in range(rng.randint(0, 500))))
+            elif how == "empty":
+                nc.write_bytes(b"")
+            else:
+                import netCDF4
+                nc.unlink()
+                with netCDF4.Dataset(nc, "w", format="NETCDF3_64BIT_OFFSET") as ds:
+                    ds.createDimension(rng.choice(["x", "a"]), 3)
+            return ["run", ctx.case(), "--out", str(out), *TINY, "--set", "time.stop_time=0.008",
+                    "--restart", str(out)], "output.nc"
         if kind == "run_deep_key":  # a dotted --set key of hundreds of parts (RecursionError)
             head = rng.choice(["closure", "equilibrium", "grid", "setup", "q"])
             key = head + ".a" * rng.randint(17, 3000)

@@ -34,6 +34,40 @@ NEGATIVE_TOLERANCE = 1e-9
 MAX_DIFFERENCES = 3
 """Differing keys named in the message."""
 STATE_PREFIX = "state."
+SCHEDULE_PREFIX = "schedule."
+
+
+def check_resume_output(path: Path, nx: int, nz: int) -> tuple[np.ndarray, np.ndarray]:
+    """The record times and probe positions of the ``output.nc`` a restart appends to; refuse
+    one that is truncated, unreadable or not a granflow run output (exit 3 before), before
+    anything is written.
+
+    Raises
+    ------
+    GranflowInputError
+        Naming the file.
+    """
+    import netCDF4
+
+    from granflow.output.integrity import check_complete
+    from granflow.cases.output_specs import PROBE_DIM
+
+    check_complete(path)
+    try:
+        with netCDF4.Dataset(path) as ds:
+            times = np.asarray(ds["time"][:], dtype=float)
+            probes = np.asarray(ds[PROBE_DIM][:], dtype=float) if PROBE_DIM in ds.variables else np.empty(0)
+            shape = (ds.dimensions["x"].size, ds.dimensions["z"].size)
+    except (OSError, IndexError, KeyError, ValueError, RuntimeError) as err:
+        raise GranflowInputError(f"--restart: {path}: not the output of a granflow run ("
+                                 f"{' '.join(str(err).split())[:120]}); move it away to continue "
+                                 "into a new output.nc") from None
+    if not np.all(np.isfinite(times)):
+        raise GranflowInputError(f"--restart: {path}: non-finite record times")
+    if shape != (nx, nz):
+        raise GranflowInputError(f"--restart: {path}: holds a grid of (nx, nz) = {shape}, not the "
+                                 f"case's ({nx}, {nz}); continue into a new --out")
+    return times, probes
 
 
 def resolve_checkpoint(path: str | Path) -> Path:
@@ -100,6 +134,11 @@ def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, An
                                  "(nothing to run); raise time.stop_time to continue the run")
     if isinstance(step, bool) or not isinstance(step, int) or step < 0:
         raise GranflowInputError(f"{where}: state.step = {step!r} is not a step number >= 0")
+    for name, value in scalars.items():  # run totals, budgets, the output schedule
+        if isinstance(value, float) and not math.isfinite(value):
+            raise GranflowInputError(f"{where}: {name} = {value!r} is not finite")
+        if name.startswith(SCHEDULE_PREFIX) and isinstance(value, (int, float)) and value < 0:
+            raise GranflowInputError(f"{where}: {name} = {value!r} is not a time >= 0")
     for name, a in arrays.items():
         if not name.startswith(STATE_PREFIX):
             continue
