@@ -149,7 +149,7 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
          "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers",
          "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated",
-         "run_deep_key", "sweep_deep_key", "run_restart_output"]
+         "run_deep_key", "sweep_deep_key", "run_restart_output", "dispersion_extreme"]
 INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
             ("numerics.ambient.velocity_band", 10**6)]
 """Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
@@ -364,6 +364,10 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
                 (ctx.work / "sw" / "sweep.json").write_text(rng.choice(["{}", "[1, 2]", "not json", '{"a": 1}']))
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "sweep.json"
             return ["sweep", str(sweep), "--out", _bad_out(rng, ctx)], "--out"
+        if kind == "dispersion_extreme":  # finite options whose base state overflows (exit 3 before)
+            extreme = rng.choice([["--p", "1e300"], ["--p", "1e-300"], ["--I", "1e-300"], ["--p-f", "1e300"],
+                                  ["--phi", "1e-300"], ["--set", "material.rho_s=1e300"]])
+            return ["stability", "dispersion", "mu_i", *extreme], "base state"
         if kind == "stability_nonfinite":
             bad = rng.choice(["inf", "-inf", "nan", "1e999"])
             if rng.random() < 0.5:
