@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE_TEXT = (ROOT / "examples" / "column_collapse_dry.toml").read_text()
 TINY = ["--set", "grid.nx=10", "--set", "grid.nz=6", "--set", "time.stop_time=0.004",
         "--set", "output.interval=0.002", "--set", "output.figures=false", "--quiet"]
-N_FAST = 330
+N_FAST = 420
 N_SLOW = 3000
 SEED_FAST = 20261201
 SEED_SLOW = 17
@@ -93,7 +93,8 @@ UNPHYSICAL = [("material.rho_s", [1e300, 1e6, 1.0, 1e-3]), ("gravity.g", [1e300,
               ("material.c_I", [1e300, 0.01, 50.0]), ("numerics.eps", [1e300, 1e5, 1e-12]),
               ("numerics.delta_p", [1e300, 1e7, 1e-12]), ("numerics.ambient.rho_a", [1e300, 1e5, 1e-8]),
               ("numerics.ambient.eta_a", [1e300, 1e5, 1e-12]), ("numerics.ambient.eta_b", [1e300, 1e5]),
-              ("numerics.gravity_blend_velocity", [1e300, 1e4, 1e-15])]
+              ("numerics.gravity_blend_velocity", [1e300, 1e4, 1e-15]), ("grid.Lx", [1e-300, 1e-9]),
+              ("grid.Lz", [1e-300, 1e-9]), ("gas.U_inj", [1e300, 1e4])]
 NEGATIVE_YIELD = ["-1 - I", "-0.1*I", "0.3 - 2*I", "-phi", "0.1 - I^2", "-(0.4 + 0.2*I)", "I - 1"]
 NONFINITE = ["I/0", "1e308**2", "1/(I - I)", "10**400", "0*I + 1e400", "phi/0 + 1", "zoo", "oo + I",
              "sqrt(-1)", "exp(1000)", "E**1000*I", "pi**700 + I", "I**1e10", "(1 + I)**200", "0.4 + (-2)**0.5"]
@@ -149,7 +150,8 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
          "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers",
          "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated",
-         "run_deep_key", "sweep_deep_key", "run_restart_output", "dispersion_extreme"]
+         "run_deep_key", "sweep_deep_key", "run_restart_output", "dispersion_extreme",
+         "run_time_floor", "run_prep_budget"]
 INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
             ("numerics.ambient.velocity_band", 10**6)]
 """Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
@@ -247,6 +249,13 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
                     ds.createDimension(rng.choice(["x", "a"]), 3)
             return ["run", ctx.case(), "--out", str(out), *TINY, "--set", "time.stop_time=0.008",
                     "--restart", str(out)], "output.nc"
+        if kind == "run_time_floor":  # within time.max_steps, but 1/dt overflows the matrices
+            return run(ctx.case(), "--set", "time.max_steps=3", "--set",
+                       f"time.cfl={10.0 ** rng.uniform(-300, -4.5)!r}"), "time.cfl"
+        if kind == "run_prep_budget":  # the injection preparation ignores time.max_steps
+            text = (ROOT / "examples" / "column_collapse_injected.toml").read_text()
+            return run(ctx.case(text), "--set", "time.max_steps=3", "--set",
+                       f"time.dt_max={10.0 ** rng.uniform(-11.9, -7.5)!r}"), "prep_max_time"
         if kind == "run_deep_key":  # a dotted --set key of hundreds of parts (RecursionError)
             head = rng.choice(["closure", "equilibrium", "grid", "setup", "q"])
             key = head + ".a" * rng.randint(17, 3000)
