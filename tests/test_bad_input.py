@@ -229,3 +229,9 @@ def test_memory_limit_environment_variable_overrides_the_available_memory(monkey
         monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, bad)
         with pytest.raises(GranflowInputError, match="GRANFLOW_MEMORY_LIMIT"):
             memory.check_memory(cfg)
+
+
+def test_a_pole_of_the_yield_function_between_the_samples_is_refused():
+    with pytest.raises(GranflowInputError, match=r"closure.expression: .*singular at I = 0.5"):
+        _cfg(closure={"name": "generic", "expression": "0.4 + 1/(I - 0.5)**2"})
+    assert _cfg(closure={"name": "generic", "expression": "0.4 + 1/(I + 0.5)**2"}).closure.name == "generic"

@@ -75,6 +75,13 @@ def yield_problems(cfg) -> list[tuple[str, str]]:
         keep = phi > 0
         Z = np.asarray(closure.Z(phi[keep], I[keep]), dtype=float)
     key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
+    if key == "closure.expression":
+        from granflow.rheology.derive import parse_yield_function, singular_points
+
+        poles = singular_points(parse_yield_function(cfg.closure.parameters()["expression"]), *EQUILIBRIUM_I)
+        if poles:
+            return [(key, f"the yield function is singular at I = {poles[0]:.4g} (within "
+                          f"{EQUILIBRIUM_I[0]:g} <= I <= {EQUILIBRIUM_I[1]:g})")]
     nonfinite = np.flatnonzero(np.isnan(Z) | (Z == np.inf))
     if nonfinite.size:
         k = nonfinite[0]

@@ -114,6 +114,23 @@ def parse_yield_function(text: str) -> sp.Expr:
     return expr
 
 
+SINGULARITY_TIME_BUDGET_S = 10.0
+"""Wall-clock budget of :func:`singular_points` [s]; beyond it no singularity is reported."""
+
+
+def singular_points(Z: sp.Expr, lo: float, hi: float) -> list[float]:
+    """The values of I in [lo, hi] where the yield function ``Z`` is singular (poles such as
+    ``1/(I - 0.5)``, which sampling misses), as SymPy finds them; empty where it cannot tell."""
+    try:
+        with _time_budget(SINGULARITY_TIME_BUDGET_S, "singularities"):
+            found = sp.singularities(Z, I, sp.Interval(lo, hi))
+        if not isinstance(found, sp.FiniteSet):
+            return []
+        return sorted(float(x) for x in found if x.is_real)
+    except (GranflowInputError, NotImplementedError, TypeError, ValueError, AttributeError):
+        return []
+
+
 class _OutOfTime(Exception):
     pass
 
