@@ -189,3 +189,49 @@ def test_truncated_netcdf_is_refused_in_every_format(tmp_path, fmt):
     else:
         with pytest.raises(GranflowInputError, match=r"truncated: .*\(3 records, only the first 2 complete\)"):
             check_complete(cut)
+
+
+def test_derivation_time_budget_is_bad_input_and_a_normal_derivation_fits(monkeypatch):
+    from granflow.rheology import derive
+
+    assert derive.derive_dilatancy("0.38 + 0.27*I/(I + 0.3)").f is not None
+    import time
+
+    monkeypatch.setattr(derive, "DERIVE_TIME_BUDGET_S", 0.05)
+    monkeypatch.setattr(derive, "_derive", lambda Z, simplify: time.sleep(5))  # a SymPy that never ends
+    t0 = time.monotonic()
+    with pytest.raises(GranflowInputError, match="did not finish within 0.05 s"):
+        derive.derive_dilatancy("0.4 + I")
+    assert time.monotonic() - t0 < 2
+
+
+@pytest.mark.parametrize("expr, fragment", [("sqrt(-1)", "not real"), ("exp(1000)", "exp(1000)"),
+                                            ("I**1e10", "exponent"), ("(1 + I)**200", "exponent")])
+def test_expressions_sympy_cannot_handle_are_refused_fast(expr, fragment):
+    from granflow.rheology.derive import parse_yield_function
+
+    with pytest.raises(GranflowInputError, match=fragment.replace("(", r"\(").replace(")", r"\)")):
+        parse_yield_function(expr)
+    assert parse_yield_function("(1 + I)**3 + exp(-1000)").free_symbols
+
+
+def test_memory_limit_environment_variable_overrides_the_available_memory(monkeypatch):
+    cfg = _cfg(grid={"nx": 200, "nz": 200})  # estimate 0.7 GB
+    monkeypatch.setattr(memory, "available_memory", lambda: 100_000_000_000)
+    memory.check_memory(cfg)
+    monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, "0.5")
+    with pytest.raises(GranflowInputError, match=r"0\.7 GB .*0\.5 GB of the limit GRANFLOW_MEMORY_LIMIT"):
+        memory.check_memory(cfg)
+    monkeypatch.setattr(memory, "available_memory", lambda: 1_000_000)  # a small machine, raised limit
+    monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, "1000")
+    memory.check_memory(cfg)
+    for bad in ("lots", "-1", "nan", "0"):
+        monkeypatch.setenv(memory.MEMORY_LIMIT_ENV, bad)
+        with pytest.raises(GranflowInputError, match="GRANFLOW_MEMORY_LIMIT"):
+            memory.check_memory(cfg)
+
+
+def test_a_pole_of_the_yield_function_between_the_samples_is_refused():
+    with pytest.raises(GranflowInputError, match=r"closure.expression: .*singular at I = 0.5"):
+        _cfg(closure={"name": "generic", "expression": "0.4 + 1/(I - 0.5)**2"})
+    assert _cfg(closure={"name": "generic", "expression": "0.4 + 1/(I + 0.5)**2"}).closure.name == "generic"

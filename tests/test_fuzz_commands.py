@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE_TEXT = (ROOT / "examples" / "column_collapse_dry.toml").read_text()
 TINY = ["--set", "grid.nx=10", "--set", "grid.nz=6", "--set", "time.stop_time=0.004",
         "--set", "output.interval=0.002", "--set", "output.figures=false", "--quiet"]
-N_FAST = 330
+N_FAST = 420
 N_SLOW = 3000
 SEED_FAST = 20261201
 SEED_SLOW = 17
@@ -89,9 +89,17 @@ NUMERIC = [("material", "d"), ("material", "rho_s"), ("material", "delta_phi"), 
            ("gravity", "g"), ("time", "stop_time")]
 UNPHYSICAL = [("material.rho_s", [1e300, 1e6, 1.0, 1e-3]), ("gravity.g", [1e300, 1e4, 301.0]),
               ("material.eta_f", [1e300, 100.0, 1e-12]), ("material.p_atm", [1e300, 1e12, 0.5]),
-              ("material.rho_f0", [1e300, 1e5, 1e-9]), ("material.d", [1e-9, 5e-7])]
+              ("material.rho_f0", [1e300, 1e5, 1e-9]), ("material.d", [1e-9, 5e-7]),
+              ("material.c_I", [1e300, 0.01, 50.0]), ("numerics.eps", [1e300, 1e5, 1e-12]),
+              ("numerics.delta_p", [1e300, 1e7, 1e-12]), ("numerics.ambient.rho_a", [1e300, 1e5, 1e-8]),
+              ("numerics.ambient.eta_a", [1e300, 1e5, 1e-12]), ("numerics.ambient.eta_b", [1e300, 1e5]),
+              ("numerics.gravity_blend_velocity", [1e300, 1e4, 1e-15]), ("grid.Lx", [1e-300, 1e-9]),
+              ("grid.Lz", [1e-300, 1e-9]), ("gas.U_inj", [1e300, 1e4])]
 NEGATIVE_YIELD = ["-1 - I", "-0.1*I", "0.3 - 2*I", "-phi", "0.1 - I^2", "-(0.4 + 0.2*I)", "I - 1"]
-NONFINITE = ["I/0", "1e308**2", "1/(I - I)", "10**400", "0*I + 1e400", "phi/0 + 1", "zoo", "oo + I"]
+NONFINITE = ["I/0", "1e308**2", "1/(I - I)", "10**400", "0*I + 1e400", "phi/0 + 1", "zoo", "oo + I",
+             "sqrt(-1)", "exp(1000)", "E**1000*I", "pi**700 + I", "I**1e10", "(1 + I)**200", "0.4 + (-2)**0.5"]
+ON_LINE_NONFINITE = ["exp(1000*I)", "1/I", "I**-1", "0.4 + 1/(I - 0.5)**2"]
+"""Finite expressions whose value on the equilibrium line is not (run only: ``check`` reports it)."""
 PHYSICS = ['gas.law="linear"', "material.rho_s=2600.0", 'walls.bottom="free_slip"', "gravity.slope_deg=5.0",
            "closure.delta_deg=30.0", "material.eta_f=2e-5", "setup.H0=0.09", "material.phi_max=0.61"]
 
@@ -114,6 +122,11 @@ def _checkpoint_edit(rng: random.Random) -> tuple[str, Callable]:
         ("state.p", arr("state.p", i, -np.inf)), ("state.p_f", arr("state.p_f", i, np.nan)),
         ("state.t", scal("state.t", float("nan"))), ("state.t", scal("state.t", -1.0)),
         ("state.t", scal("state.t", float("inf"))), ("state.step", scal("state.step", -3)),
+        ("state.t", scal("state.t", 10.0 ** rng.uniform(0, 300))),  # beyond stop_time (looped for ever)
+        ("state.p", arr("state.p", i, -rng.uniform(1.0, 1e9))), ("state.c", arr("state.c", i, rng.uniform(1.01, 9))),
+        ("state.c", arr("state.c", i, -rng.uniform(0.01, 9))),
+        ("schedule.output", scal("schedule.output", rng.choice([float("nan"), -rng.uniform(1e-3, 1e300)]))),
+        ("totals.clipped_mass", scal("totals.clipped_mass", rng.choice([float("nan"), float("inf")]))),
         ("case", lambda a, s, m: m.__setitem__("case", "sheared_layer")),
         ("grid", lambda a, s, m: m.__setitem__("grid", [11, 6, 0.4, 0.15])),
     ])
@@ -133,7 +146,15 @@ KINDS = ["run_out", "run_output_directory", "run_checkpoints_file", "run_summary
          "check_section_set", "check_bad_set", "check_text_number", "check_plot", "check_expression",
          "derive_expression", "derive_bad_set", "dispersion_plot", "dispersion_bad_set", "sweep_out",
          "sweep_deep", "sweep_self_base", "sweep_foreign_json", "plot_out", "plot_animate",
-         "plot_truncated", "export_out", "export_truncated", "stability_nonfinite"]
+         "plot_truncated", "export_out", "export_truncated", "stability_nonfinite",
+         "run_long_name", "run_figure_dir", "run_checkpoint_entry_dir", "sweep_member_file",
+         "run_output_interval", "run_int_caps", "sweep_too_many", "sweep_workers",
+         "sweep_strict_types", "check_bool_number", "run_device_file", "run_fields_repeated",
+         "run_deep_key", "sweep_deep_key", "run_restart_output", "dispersion_extreme",
+         "run_time_floor", "run_prep_budget"]
+INT_CAPS = [("time.max_steps", 10**7), ("time.max_retries", 50), ("numerics.picard.max_sweeps", 1000),
+            ("numerics.ambient.velocity_band", 10**6)]
+"""Integer options and the largest value each accepts (beyond: a hang, or an overflow)."""
 
 
 def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one branch per kind
@@ -153,6 +174,21 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             name = rng.choice(["summary.json", "output.nc"])
             (ctx.work / "out" / name).mkdir(parents=True)
             return run(ctx.case(), "--overwrite"), name
+        if kind == "run_long_name":  # a component longer than NAME_MAX (255 bytes on Linux)
+            name = rng.choice("abxyz") * rng.randint(256, 400)
+            head = rng.choice([["run", ctx.case(), "--out"], ["plot", str(ctx.run_dir), "--out"],
+                               ["export", "vtk", str(ctx.run_dir), "--out"], ["check", "mu_i", "--plot"]])
+            tail = TINY if head[0] == "run" else []
+            return [*head, str(ctx.work / name / "x") if rng.random() < 0.5 else str(ctx.work / name), *tail], \
+                "too long"
+        if kind == "run_figure_dir":
+            name = rng.choice(["snapshots.png", "front.png"])
+            (ctx.work / "out" / name).mkdir(parents=True)
+            return run(ctx.case(), "--overwrite", "--set", "output.figures=true"), name
+        if kind == "run_checkpoint_entry_dir":
+            entry = ctx.work / "out" / "checkpoints" / f"checkpoint_{rng.randint(0, 9):08d}.npz"
+            entry.mkdir(parents=True)
+            return run(ctx.case(), "--overwrite"), entry.name
         if kind == "run_runs_file":
             ctx.file("runs")
             return ["run", ctx.case(), *TINY], "runs"
@@ -186,10 +222,53 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
             return run(ctx.case(), "--set", "case.allow_unphysical=true",
                        "--set", f"material.d={rng.uniform(0.1, 0.9)!r}"), "material.d"
         if kind in ("run_negative_yield", "run_nonfinite_yield"):
-            expr = rng.choice(NEGATIVE_YIELD if kind == "run_negative_yield" else NONFINITE)
+            expr = rng.choice(NEGATIVE_YIELD if kind == "run_negative_yield" else NONFINITE + ON_LINE_NONFINITE)
             text = EXAMPLE_TEXT.replace('name = "drucker_prager"', 'name = "generic"').replace(
                 "delta_deg = 26.74", f'expression = "{expr}"')
             return run(ctx.case(text)), "closure.expression"
+        if kind == "run_output_interval":
+            return run(ctx.case(), "--set", f"output.interval={10.0 ** rng.uniform(-300, -8)!r}"), "output.interval"
+        if kind == "run_int_caps":
+            key, most = rng.choice(INT_CAPS)
+            return run(ctx.case(), "--set", f"{key}={rng.randint(most + 1, 2**63 - 1)}"), key
+        if kind == "run_restart_output":  # continue a run whose output.nc is not a whole granflow output
+            out = ctx.work / "out"
+            shutil.copytree(ctx.run_dir, out)
+            nc = out / "output.nc"
+            how = rng.choice(["truncate", "junk", "empty", "foreign"])
+            if how == "truncate":
+                os.truncate(nc, rng.randint(100, nc.stat().st_size - 1))
+            elif how == "junk":
+                nc.write_bytes(b"CDF\x02" + bytes(rng.randrange(256) for _ in range(rng.randint(0, 500))))
+            elif how == "empty":
+                nc.write_bytes(b"")
+            else:
+                import netCDF4
+                nc.unlink()
+                with netCDF4.Dataset(nc, "w", format="NETCDF3_64BIT_OFFSET") as ds:
+                    ds.createDimension(rng.choice(["x", "a"]), 3)
+            return ["run", ctx.case(), "--out", str(out), *TINY, "--set", "time.stop_time=0.008",
+                    "--restart", str(out)], "output.nc"
+        if kind == "run_time_floor":  # within time.max_steps, but 1/dt overflows the matrices
+            return run(ctx.case(), "--set", "time.max_steps=3", "--set",
+                       f"time.cfl={10.0 ** rng.uniform(-300, -4.5)!r}"), "time.cfl"
+        if kind == "run_prep_budget":  # the injection preparation ignores time.max_steps
+            text = (ROOT / "examples" / "column_collapse_injected.toml").read_text()
+            return run(ctx.case(text), "--set", "time.max_steps=3", "--set",
+                       f"time.dt_max={10.0 ** rng.uniform(-11.9, -7.5)!r}"), "prep_max_time"
+        if kind == "run_deep_key":  # a dotted --set key of hundreds of parts (RecursionError)
+            head = rng.choice(["closure", "equilibrium", "grid", "setup", "q"])
+            key = head + ".a" * rng.randint(17, 3000)
+            return run(ctx.case(), "--set", f"{key}={rng.choice(['1', '0.5', 'x'])}"), "parts"
+        if kind == "run_fields_repeated":
+            field = rng.choice(["phi", "u", "p", "S"])
+            return run(ctx.case(), "--set", f'output.fields=["{field}", "w", "{field}"]'), "output.fields"
+        if kind == "run_device_file":  # a case or sweep file that never ends
+            return [rng.choice(["run", "sweep"]), "/dev/zero", "--out", str(ctx.work / "o")], "/dev/zero"
+        if kind == "check_bool_number":
+            key, closure = rng.choice([("mu1", "mu_i"), ("delta_deg", "drucker_prager"), ("material.d", "mu_i"),
+                                       ("material.rho_s", "drucker_prager"), ("equilibrium.delta_phi", "mu_i")])
+            return ["check", closure, "--set", f"{key}={rng.choice(['true', 'false'])}"], key.split(".")[-1]
         if kind == "run_dt_budget":
             dt = 10.0 ** rng.uniform(-300, -7.2)
             return run(ctx.case(), "--set", f"time.dt_max={dt!r}", "--set", "time.stop_time=1.5"), "time.dt_max"
@@ -251,11 +330,53 @@ def _builder(kind: str, rng: random.Random) -> Builder:  # noqa: C901 - one bran
                                  f'"setup.H0" = {{ values = {_deep(rng)} }}\n')
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "nested"
             sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+            if kind == "sweep_too_many":
+                how = rng.choice(["range", "grid", "lhs"])
+                if how == "range":
+                    param = f'[parameters]\n"setup.H0" = {{ range = [0.05, 0.1], n = {rng.randint(10001, 10**9)} }}\n'
+                elif how == "grid":
+                    k = rng.randint(101, 300)
+                    param = ("[parameters]\n" + f'"setup.H0" = {{ range = [0.05, 0.1], n = {k} }}\n'
+                             + f'"setup.L0" = {{ range = [0.05, 0.1], n = {k} }}\n')
+                else:
+                    param = f'samples = {rng.randint(10001, 10**9)}\nseed = 1\n[parameters]\n"setup.H0" = {{ lhs = [0.05, 0.1] }}\n'
+                    sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\nmode = "lhs"\n{param}')
+                    return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "10000"
+                sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "10000"
+            if kind == "sweep_workers":
+                n = 4 * (os.cpu_count() or 1) + rng.randint(1, 10**6)
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw"), "--workers", str(n)], "--workers"
+            if kind == "sweep_deep_key":
+                key = rng.choice(["closure", "setup", "material"]) + ".a" * rng.randint(17, 3000)
+                sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n[parameters]\n"{key}" = {{ values = [1.0] }}\n')
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "parts"
+            if kind == "sweep_strict_types":
+                what = rng.choice(["n", "samples", "seed"])
+                if what == "n":
+                    value = rng.choice(["true", "2.0", "3.5", '"2"'])
+                    param = f'[parameters]\n"setup.H0" = {{ range = [0.05, 0.1], n = {value} }}\n'
+                    sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\n{param}')
+                else:
+                    value = rng.choice(["true", "2.0", f"-{rng.randint(1, 10**6)}"] if what == "seed"
+                                       else ["true", "2.0", "0"])
+                    other = "samples = 2" if what == "seed" else "seed = 1"
+                    sweep.write_text(f'[sweep]\nbase = "{Path(base).name}"\nmode = "lhs"\n{what} = {value}\n'
+                                     f'{other}\n[parameters]\n"setup.H0" = {{ lhs = [0.05, 0.1] }}\n')
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], what
+            if kind == "sweep_member_file":
+                (ctx.work / "sw").mkdir()
+                (ctx.work / "sw" / "m0000").write_text("a file")
+                return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "m0000"
             if kind == "sweep_foreign_json":
                 (ctx.work / "sw").mkdir()
                 (ctx.work / "sw" / "sweep.json").write_text(rng.choice(["{}", "[1, 2]", "not json", '{"a": 1}']))
                 return ["sweep", str(sweep), "--out", str(ctx.work / "sw")], "sweep.json"
             return ["sweep", str(sweep), "--out", _bad_out(rng, ctx)], "--out"
+        if kind == "dispersion_extreme":  # finite options whose base state overflows (exit 3 before)
+            extreme = rng.choice([["--p", "1e300"], ["--p", "1e-300"], ["--I", "1e-300"], ["--p-f", "1e300"],
+                                  ["--phi", "1e-300"], ["--set", "material.rho_s=1e300"]])
+            return ["stability", "dispersion", "mu_i", *extreme], "base state"
         if kind == "stability_nonfinite":
             bad = rng.choice(["inf", "-inf", "nan", "1e999"])
             if rng.random() < 0.5:

@@ -28,6 +28,11 @@ INTERFACE_RADIUS = 2
 MIN_VELOCITY_BAND = 2
 """Smallest :attr:`AmbientParams.velocity_band` [cells]: a step moves grains by at most two cells
 (CFL < 1/2, two Runge-Kutta stages), so they never reach the faces held at rest."""
+MAX_VELOCITY_BAND = 1_000_000
+"""Widest velocity band [cells]: more than any grid's extent (a wider band is the whole grid;
+``2**62`` overflowed a C index)."""
+MAX_PICARD_SWEEPS = 1000
+"""Most Picard sweeps per step (a step of more never converges; ``2**62`` would never end)."""
 DEFAULT_VELOCITY_BAND = 10
 """Default :attr:`AmbientParams.velocity_band` [cells]. The ambient held at rest beyond the band
 drags on the surface (viscous stress ~ eta_a u / (band dx)); measured on the Lagree column
@@ -129,7 +134,7 @@ class AmbientParams(Params):
     eta_a: float = Field(1.0e-3, gt=0, description="ambient viscosity [Pa s]")
     eta_b: float | None = Field(None, ge=0, description="background viscosity of the dense cells "
                                 "(default: eta_a with surface = \"threshold\", 0 with \"indicator\") [Pa s]")
-    velocity_band: int = Field(DEFAULT_VELOCITY_BAND, ge=0, description="solve the velocity only "
+    velocity_band: int = Field(DEFAULT_VELOCITY_BAND, ge=0, le=MAX_VELOCITY_BAND, description="solve the velocity only "
                                "within this many cells of the grains, u = 0 beyond; 0 = everywhere, "
                                f"else >= {MIN_VELOCITY_BAND} [cells]")
 
@@ -160,7 +165,7 @@ class PicardParams(Params):
         The step FAILS if the last relative increment exceeds this [-]. Default 0.5.
     """
 
-    max_sweeps: int = Field(4, ge=1, description="maximum Picard sweeps per step")
+    max_sweeps: int = Field(4, ge=1, le=MAX_PICARD_SWEEPS, description="maximum Picard sweeps per step")
     tol: float = Field(1.0e-3, gt=0, description="relative velocity-increment tolerance")
     fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
 

@@ -45,9 +45,14 @@ def _element_type(annotation: Any) -> Any:
 
 def refuse_text_numbers(value: Any, annotation: Any) -> None:
     """Raise ``ValueError`` for a string given where the annotation wants a number (no silent
-    conversion of ``"0.2"`` to 0.2), also for the elements of a tuple or list."""
+    conversion of ``"0.2"`` to 0.2), a boolean where it wants a number (``true`` is not 1), or
+    a float where it wants an integer (``n = 2.0``), also for the elements of a tuple or list."""
     if isinstance(value, str) and not accepts(annotation, str):
         raise ValueError(f"Input should be a number, not the text {value!r}")
+    if isinstance(value, bool) and not accepts(annotation, bool):
+        raise ValueError(f"Input should be a number, not the boolean {str(value).lower()}")
+    if isinstance(value, float) and accepts(annotation, int) and not accepts(annotation, float):
+        raise ValueError(f"Input should be an integer, not the float {value!r}")
     element = _element_type(annotation)
     if element is not None and isinstance(value, (list, tuple)):
         for item in value:

@@ -181,7 +181,11 @@ class TimeInterval:
 
     def due(self, sim: Simulation) -> bool:
         if sim.state.t >= self._next - TIME_EPS * max(1.0, abs(self._next)):
-            while self._next <= sim.state.t + TIME_EPS * max(1.0, abs(sim.state.t)):
+            until = sim.state.t + TIME_EPS * max(1.0, abs(sim.state.t))
+            behind = math.floor((until - self._next) / self.interval)
+            if behind > 1:  # far behind (a restart at a later time): jump there, do not loop
+                self._next += (behind - 1) * self.interval
+            while self._next <= until:
                 self._next += self.interval
             return True
         return False

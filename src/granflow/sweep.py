@@ -24,6 +24,7 @@ import csv
 import io
 import itertools
 import json
+import math
 import time
 import traceback
 from collections.abc import Callable, Mapping
@@ -37,6 +38,7 @@ from pydantic import Field, ValidationError, model_validator
 from granflow.errors import GranflowInputError
 from granflow.output.summary import atomic_write, jsonable, write_json_atomic
 from granflow.params import Params, format_validation_error
+from granflow.safe_toml import MAX_NESTING
 
 #: A member function: (full configuration, its output directory) -> summary (JSON-able dict).
 MemberFunction = Callable[[dict[str, Any], Path], Mapping[str, Any]]
@@ -48,6 +50,9 @@ MEMBER_FILE = "member.json"
 SPEC_FILE = "sweep.json"
 TABLE_FILE = "sweep_summary.csv"
 #: Minimum number of digits of member ids (m0000).
+MAX_MEMBERS = 10_000
+"""Most members of one sweep (a guard against ``n = 1000000000``, which never finished making the
+member list); split a larger study into several sweeps."""
 ID_DIGITS = 4
 ID_PREFIX = "m"
 #: Default number of workers of the local cluster.
@@ -70,7 +75,7 @@ class ParameterRange(Params):
 
     values: list[Any] | None = Field(default=None, min_length=1)
     range: tuple[float, float] | None = None
-    n: int | None = Field(default=None, ge=1)
+    n: int | None = Field(default=None, ge=1, le=MAX_MEMBERS)
     lhs: tuple[float, float] | None = None
 
     @model_validator(mode="after")
@@ -120,8 +125,8 @@ class SweepSpec(Params):
     base: dict[str, Any] = Field(default_factory=dict)
     parameters: dict[str, ParameterRange] = Field(min_length=1)
     mode: Literal["grid", "zip", "lhs"] = "grid"
-    samples: int | None = Field(default=None, ge=1)
-    seed: int | None = None
+    samples: int | None = Field(default=None, ge=1, le=MAX_MEMBERS)
+    seed: int | None = Field(default=None, ge=0)
 
     @model_validator(mode="after")
     def _consistent(self) -> SweepSpec:
@@ -138,6 +143,12 @@ class SweepSpec(Params):
                                  "mode = 'lhs'")
             if self.samples is not None or self.seed is not None:
                 raise ValueError("'samples' and 'seed' apply to mode 'lhs' only")
+        if self.mode == "grid":
+            count = math.prod(len(p.values) if p.values is not None else p.n
+                              for p in self.parameters.values())
+            if count > MAX_MEMBERS:
+                raise ValueError(f"mode 'grid' makes {count} members, more than {MAX_MEMBERS} "
+                                 "(granflow.sweep.MAX_MEMBERS); split the sweep")
         if self.mode == "zip":
             lengths = {k: len(p.points()) for k, p in self.parameters.items()}
             if len(set(lengths.values())) != 1:
@@ -145,6 +156,9 @@ class SweepSpec(Params):
         for key in self.parameters:
             if not all(key.split(KEY_SEP)):
                 raise ValueError(f"bad parameter key {key!r}")
+            if len(key.split(KEY_SEP)) > MAX_NESTING:
+                raise ValueError(f"parameter key {key[:40]!r}... of {len(key.split(KEY_SEP))} parts; "
+                                 f"tables are nested at most {MAX_NESTING} levels deep")
             apply_overrides(self.base, {key: None})  # unknown section -> error now, not per member
         return self
 
@@ -252,7 +266,11 @@ def flatten_scalars(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]
 
 
 def _check_member_dir(member_dir: Path, member_id: str, overrides: Mapping[str, Any]) -> None:
-    """Refuse to reuse a directory that belongs to a different member definition."""
+    """Refuse to reuse a directory that belongs to a different member definition (or that is
+    not a directory)."""
+    if (member_dir.exists() or member_dir.is_symlink()) and not member_dir.is_dir():
+        raise GranflowInputError(f"{member_dir}: exists and is not a directory (the directory of "
+                                 f"member {member_id}); use a new output directory")
     path = member_dir / MEMBER_FILE
     if path.exists() or path.is_symlink():
         try:

@@ -107,6 +107,10 @@ PROFILE_STATIONS = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5)
 ModelChoice = Literal["incompressible", "mu_i"]
 
 
+MAX_FRICTION = 10.0
+"""Largest ``setup.mu_s`` and ``setup.delta_mu`` (friction coefficients; ``delta_mu = 1e300``
+only failed the first linear solve, exit 1)."""
+
 class LagreeColumnSetup(Section):
     """``[setup]`` of ``lagree_column`` (all lengths in units of H0)."""
 
@@ -119,8 +123,8 @@ class LagreeColumnSetup(Section):
                                      "1/30 for a < 1, 1/65 otherwise, as granular_column.c [H0]")
     model: ModelChoice = Field("incompressible", description='"incompressible" (reference mu(I), '
                                'div u = 0) or "mu_i" (the paper\'s mu(I) closure with dilatancy) [-]')
-    mu_s: float = Field(0.32, gt=0, description="mu(0), static friction coefficient [-]")
-    delta_mu: float = Field(0.28, gt=0, description="mu(inf) - mu(0) [-]")
+    mu_s: float = Field(0.32, gt=0, le=MAX_FRICTION, description="mu(0), static friction coefficient [-]")
+    delta_mu: float = Field(0.28, gt=0, le=MAX_FRICTION, description="mu(inf) - mu(0) [-]")
     I0: float = Field(0.4, gt=0, description="inertial-number scale of mu(I), literature "
                       "convention c_I = 2 [-]")
     phi_max: float = Field(0.6, gt=0, lt=1, description="initial and maximum packing fraction; "

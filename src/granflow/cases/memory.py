@@ -1,10 +1,13 @@
 """Up-front memory estimate of a run: a grid that fits under :data:`granflow.config.MAX_CELLS`
 may still not fit in the machine (``2000 x 2000`` cells died with a MemoryError after 40 s), so
 :class:`granflow.cases.runner.CaseRun` refuses a grid whose estimate exceeds the memory available,
-naming both, before anything is computed.
+naming both, before anything is computed. The limit is the memory available, or the environment
+variable :data:`MEMORY_LIMIT_ENV` (in GB) where it is set: lower it on a shared machine, raise it to
+run past the estimate.
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -16,6 +19,9 @@ BYTES_PER_CELL = 10_000
 velocity band on), with a margin for whole-grid solves and the output."""
 BASE_BYTES = 300_000_000
 """Memory of the interpreter and its libraries before the grid [bytes] (measured ~190 MB)."""
+MEMORY_LIMIT_ENV = "GRANFLOW_MEMORY_LIMIT"
+"""Environment variable of the memory limit of a run [GB], replacing the memory available."""
+BYTES_PER_GB = 1e9
 MEMINFO = Path("/proc/meminfo")
 CGROUP_LIMIT = Path("/sys/fs/cgroup/memory.max")
 
@@ -49,8 +55,30 @@ def estimate_bytes(cells: int) -> int:
     return BASE_BYTES + BYTES_PER_CELL * cells
 
 
+def memory_limit() -> tuple[int | None, str]:
+    """(limit [bytes], where it comes from): :data:`MEMORY_LIMIT_ENV` if set, else
+    :func:`available_memory`.
+
+    Raises
+    ------
+    GranflowInputError
+        For a :data:`MEMORY_LIMIT_ENV` that is not a positive finite number of GB.
+    """
+    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    if not text:
+        return available_memory(), "of memory available"
+    try:
+        gb = float(text)
+    except ValueError:
+        gb = math.nan
+    if not (math.isfinite(gb) and gb > 0):
+        raise GranflowInputError(f"{MEMORY_LIMIT_ENV} = {text[:40]!r}: expected a memory limit in GB > 0")
+    return int(gb * BYTES_PER_GB), f"of the limit {MEMORY_LIMIT_ENV}"
+
+
 def check_memory(config, available: int | None = None) -> None:
-    """Refuse a grid whose estimated memory exceeds what is available.
+    """Refuse a grid whose estimated memory exceeds what is available (or the limit
+    :data:`MEMORY_LIMIT_ENV`).
 
     Raises
     ------
@@ -60,9 +88,10 @@ def check_memory(config, available: int | None = None) -> None:
     g = config.grid
     cells = g.nx * g.nz
     need = estimate_bytes(cells)
-    have = available_memory() if available is None else available
+    have, source = memory_limit() if available is None else (available, "of memory available")
     if have is not None and need > have:
         raise GranflowInputError(
-            f"grid: nx * nz = {g.nx} * {g.nz} = {cells} cells need about {need / 1e9:.3g} GB "
+            f"grid: nx * nz = {g.nx} * {g.nz} = {cells} cells need about {need / BYTES_PER_GB:.3g} GB "
             f"(estimate: {BYTES_PER_CELL / 1e3:g} kB per cell, granflow.cases.memory), more than "
-            f"the {have / 1e9:.3g} GB of memory available; reduce grid.nx or grid.nz")
+            f"the {have / BYTES_PER_GB:.3g} GB {source}; reduce grid.nx or grid.nz (or set "
+            f"{MEMORY_LIMIT_ENV} to a limit in GB)")

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from granflow.cases.common import make_model, packing, rectangle_fraction
-from granflow.config import CaseConfig, GasSection, GridSection, WallsSection
+from granflow.config import MAX_STEPS, CaseConfig, GasSection, GridSection, WallsSection
 from granflow.errors import GranflowInputError
 from granflow.grid import MIN_CELLS
 from granflow.model import Model
@@ -143,6 +143,12 @@ def preparation_problems(config: CaseConfig) -> list[tuple[str, str]]:
             if value != off:
                 out.append((f"setup.{key}", f'needs setup.preparation = "{Preparation.INJECTION}"'))
         return out
+    max_time = DEFAULT_PREP_MAX_TIME if s.prep_max_time is None else s.prep_max_time
+    if max_time / config.time.dt_max > MAX_STEPS:  # the preparation has no time.max_steps
+        out.append(("time.dt_max", f"the injection preparation of up to {max_time:g} s (setup.prep_max_time) "
+                                   f"needs {max_time / config.time.dt_max:.3g} steps of dt_max = "
+                                   f"{config.time.dt_max:g} s at least, more than the step budget of "
+                                   f"{MAX_STEPS} (granflow.config.MAX_STEPS); raise time.dt_max"))
     if config.gas.law == "none":
         out.append(("setup.preparation", (f'"{Preparation.INJECTION}" injects gas through the base: it '
                     'needs gas.law = "linear" or "nonlinear"')))

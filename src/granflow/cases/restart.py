@@ -6,8 +6,8 @@ the :data:`PHYSICS_SECTIONS` of its effective configuration (``meta["config_effe
 equal those of the case being run -- a mu(I) checkpoint continued with Drucker-Prager, or a
 fluidised one continued dry, is refused, naming the keys that differ. The time, output and
 numerics options may change (the latter with a warning that the restart is not bit for bit). Its
-state must be sane: a finite, non-negative time and step, finite fields and phi within
-[0, phi_max (1 + :data:`PHI_TOLERANCE`)], so that a corrupt or hand-edited checkpoint is bad input
+state must be sane: a finite, non-negative time not beyond ``time.stop_time`` and step, finite
+fields, phi within [0, phi_max (1 + :data:`PHI_TOLERANCE`)], p >= 0 and c within [0, 1], so that a corrupt or hand-edited checkpoint is bad input
 (exit 2) rather than a step failure later.
 """
 from __future__ import annotations
@@ -28,9 +28,46 @@ PHYSICS_SECTIONS = ("material", "closure", "equilibrium", "gas", "gravity", "wal
 """Sections of the effective configuration that define the physics of a run."""
 PHI_TOLERANCE = 1e-6
 """Relative overshoot of phi_max accepted in a checkpoint's phi (the solver clips to phi_max)."""
+NEGATIVE_TOLERANCE = 1e-9
+"""Relative undershoot (of the largest magnitude) below 0 accepted in a checkpoint's p, and below
+0 or above 1 in its material fraction c (the solver keeps p >= 0 and c in [0, 1])."""
 MAX_DIFFERENCES = 3
 """Differing keys named in the message."""
 STATE_PREFIX = "state."
+SCHEDULE_PREFIX = "schedule."
+
+
+def check_resume_output(path: Path, nx: int, nz: int) -> tuple[np.ndarray, np.ndarray]:
+    """The record times and probe positions of the ``output.nc`` a restart appends to; refuse
+    one that is truncated, unreadable or not a granflow run output (exit 3 before), before
+    anything is written.
+
+    Raises
+    ------
+    GranflowInputError
+        Naming the file.
+    """
+    import netCDF4
+
+    from granflow.output.integrity import check_complete
+    from granflow.cases.output_specs import PROBE_DIM
+
+    check_complete(path)
+    try:
+        with netCDF4.Dataset(path) as ds:
+            times = np.asarray(ds["time"][:], dtype=float)
+            probes = np.asarray(ds[PROBE_DIM][:], dtype=float) if PROBE_DIM in ds.variables else np.empty(0)
+            shape = (ds.dimensions["x"].size, ds.dimensions["z"].size)
+    except (OSError, IndexError, KeyError, ValueError, RuntimeError) as err:
+        raise GranflowInputError(f"--restart: {path}: not the output of a granflow run ("
+                                 f"{' '.join(str(err).split())[:120]}); move it away to continue "
+                                 "into a new output.nc") from None
+    if not np.all(np.isfinite(times)):
+        raise GranflowInputError(f"--restart: {path}: non-finite record times")
+    if shape != (nx, nz):
+        raise GranflowInputError(f"--restart: {path}: holds a grid of (nx, nz) = {shape}, not the "
+                                 f"case's ({nx}, {nz}); continue into a new --out")
+    return times, probes
 
 
 def resolve_checkpoint(path: str | Path) -> Path:
@@ -79,8 +116,9 @@ def physics_differences(meta: dict[str, Any], config) -> list[str]:
 
 
 def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, Any],
-                phi_max: float) -> None:
-    """Refuse a checkpoint whose state is not finite or whose phi is outside [0, phi_max].
+                phi_max: float, stop_time: float | None = None) -> None:
+    """Refuse a checkpoint whose state is not finite, whose phi is outside [0, phi_max], p < 0,
+    c outside [0, 1], or whose time is beyond ``stop_time`` (nothing left to run).
 
     Raises
     ------
@@ -91,8 +129,16 @@ def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, An
     t, step = scalars.get("state.t"), scalars.get("state.step")
     if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t < 0:
         raise GranflowInputError(f"{where}: state.t = {t!r} is not a finite time >= 0")
+    if stop_time is not None and t > stop_time:
+        raise GranflowInputError(f"{where}: state.t = {t:g} s is beyond time.stop_time = {stop_time:g} s "
+                                 "(nothing to run); raise time.stop_time to continue the run")
     if isinstance(step, bool) or not isinstance(step, int) or step < 0:
         raise GranflowInputError(f"{where}: state.step = {step!r} is not a step number >= 0")
+    for name, value in scalars.items():  # run totals, budgets, the output schedule
+        if isinstance(value, float) and not math.isfinite(value):
+            raise GranflowInputError(f"{where}: {name} = {value!r} is not finite")
+        if name.startswith(SCHEDULE_PREFIX) and isinstance(value, (int, float)) and value < 0:
+            raise GranflowInputError(f"{where}: {name} = {value!r} is not a time >= 0")
     for name, a in arrays.items():
         if not name.startswith(STATE_PREFIX):
             continue
@@ -108,6 +154,15 @@ def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, An
         if lo < 0 or hi > phi_max * (1 + PHI_TOLERANCE):
             raise GranflowInputError(f"{where}: state.phi spans [{lo:g}, {hi:g}], outside "
                                      f"[0, material.phi_max = {phi_max:g}]")
+    for name, upper in (("p", None), ("c", 1.0)):
+        a = arrays.get(f"{STATE_PREFIX}{name}")
+        if a is None or not a.size:
+            continue
+        lo, hi = float(a.min()), float(a.max())
+        slack = NEGATIVE_TOLERANCE * max(1.0, abs(lo), abs(hi))
+        if lo < -slack or (upper is not None and hi > upper + slack):
+            bounds = f"[0, {upper:g}]" if upper is not None else ">= 0"
+            raise GranflowInputError(f"{where}: state.{name} spans [{lo:g}, {hi:g}], not {bounds}")
 
 
 def check_checkpoint(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, Any],
@@ -126,4 +181,4 @@ def check_checkpoint(path: Path, arrays: dict[str, np.ndarray], scalars: dict[st
         raise GranflowInputError(f"--restart {path}: the checkpoint is of other physics: "
                                  + "; ".join(diff[:MAX_DIFFERENCES]) + more
                                  + " (restart with the case file and --set options of the original run)")
-    check_state(path, arrays, scalars, phi_max)
+    check_state(path, arrays, scalars, phi_max, config.time.stop_time)

@@ -30,14 +30,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import netCDF4
 import numpy as np
 
 from granflow import diagnostics as dg
 from granflow.cases.memory import check_memory
 from granflow.cases.output_specs import FIELD_SPECS, PROBE_DIM, PROBE_SPECS, SERIES_SPECS, SI_KIND, UNIT_KINDS
 from granflow.cases.registry import CASES
-from granflow.cases.restart import CHECKPOINT_DIR, check_checkpoint, resolve_checkpoint
+from granflow.cases.restart import (
+    CHECKPOINT_DIR,
+    check_checkpoint,
+    check_resume_output,
+    resolve_checkpoint,
+)
 from granflow.cases.step_clock import StepClock
 from granflow.cases.wall_contact import WallWatch, warning_text
 from granflow.config import CaseConfig
@@ -60,6 +64,15 @@ OUTPUT_FILE = "output.nc"
 SUMMARY_FILE = "summary.json"
 RUN_FILES = (OUTPUT_FILE, SUMMARY_FILE)
 """Files of a run directory that must be writable files (checked before the run starts)."""
+CHECKPOINT_GLOB = f"{CHECKPOINT_DIR}/*.npz"
+FIGURE_GLOB = "*.png"
+"""Entries of a run directory that a run may overwrite (checkpoints; figures with
+``output.figures``): an existing one that is not a regular file is refused before the run."""
+
+
+def run_file_globs(config: CaseConfig) -> tuple[str, ...]:
+    """The patterns of :data:`CHECKPOINT_GLOB` and :data:`FIGURE_GLOB` that apply to ``config``."""
+    return (CHECKPOINT_GLOB, FIGURE_GLOB) if config.output.figures else (CHECKPOINT_GLOB,)
 REST_SPEED_FACTOR = 10.0
 """Default rest speed = REST_SPEED_FACTOR eps Lz [m s^-1] (eps Lz is the creep speed scale)."""
 EVERY_STEP = 1
@@ -133,7 +146,7 @@ class CaseRun:
         self.config = config
         self.case = CASES.get(config.case.name)
         self.directory = check_directory(directory, "output directory", files=RUN_FILES,
-                                         subdirs=(CHECKPOINT_DIR,))
+                                         subdirs=(CHECKPOINT_DIR,), file_globs=run_file_globs(config))
         self.output_path = self.directory / OUTPUT_FILE
         if restart is None and self.output_path.exists() and not overwrite:
             raise GranflowInputError(f"{self.output_path} exists (an earlier run); write this run elsewhere "
@@ -173,18 +186,20 @@ class CaseRun:
         self.sim.add_callback(self._monitor, IterationInterval(EVERY_STEP), name="monitor")
         self.sim.add_callback(self._periodic_checkpoint, IterationInterval(out.checkpoint_interval),
                               name="checkpoint")
+        self._resume: tuple[np.ndarray, np.ndarray] | None = None
         if restart is not None:  # every check of the checkpoint before anything is written
             self._restore(resolve_checkpoint(restart))
+            if self.output_path.exists():
+                self._resume = check_resume_output(self.output_path, self.grid.nx, self.grid.nz)
         self.directory.mkdir(parents=True, exist_ok=True)
         self.checkpoints = CheckpointManager(self.directory / CHECKPOINT_DIR, keep=out.checkpoint_keep)
         if restart is None:
             for old in self.checkpoints.steps():
                 self.checkpoints.path(old).unlink(missing_ok=True)
         self._session_t0 = (self.sim.state.t, time.perf_counter())
-        self._clock = StepClock()  # rate and ETA without the steps that compile the kernels
-        """(t, wall, reports) at the end of the session's first step: the rate and ETA leave out
-        that step, which compiles the Numba kernels."""
-        self.writer = self._open_writer(resume=restart is not None and self.output_path.exists())
+        self._clock = StepClock()
+        """Rate and ETA of the progress line, without the steps that compile the Numba kernels."""
+        self.writer = self._open_writer(resume=self._resume is not None)
 
     # --- output ---------------------------------------------------------------------------------
     def _declarations(self) -> tuple[dict, dict, dict]:
@@ -233,9 +248,7 @@ class CaseRun:
         if not resume:
             return NetCDFWriter(self.output_path, coords, variables, attrs, **kw)
         t = self.sim.state.t
-        with netCDF4.Dataset(self.output_path) as ds:
-            times = np.asarray(ds["time"][:], dtype=float)
-            old = np.asarray(ds[PROBE_DIM][:], dtype=float) if PROBE_DIM in ds.variables else np.empty(0)
+        times, old = self._resume
         new = np.asarray(self.grid.xc[self.probe_cells], dtype=float)
         if old.shape != new.shape or not np.array_equal(old, new):
             raise GranflowInputError(f"--restart: output.probes_x gives probe cells at x = {new.tolist()} m, "

@@ -15,6 +15,9 @@ _BASE_FIELDS = {"material", "equilibrium"}
 #: Wavenumber and direction samples of ``granflow stability dispersion``.
 DISPERSION_K_POINTS = 25
 DISPERSION_THETA_POINTS = 36
+DISPERSION_ERRORS = (ValueError, ZeroDivisionError, FloatingPointError, OverflowError)
+"""What the eigenvalue problems raise on a base state with infinite or NaN coefficients (e.g.
+``--p 1e300``, ``--I 1e-300``, ``material.rho_s = 1e300``: exit 3 before)."""
 
 
 def _field_table(cls) -> dict[str, dict[str, Any]]:
@@ -84,6 +87,24 @@ def _finite(args: argparse.Namespace, *names: str) -> None:
         value = getattr(args, name)
         if value is not None and not math.isfinite(value):
             raise GranflowInputError(f"--{name.replace('_', '-')} must be a finite number (got {value})")
+
+
+def _all_finite(data: Any) -> bool:
+    """Whether every number in a nested dict/list result is finite."""
+    import math
+
+    if isinstance(data, dict):
+        return all(_all_finite(v) for v in data.values())
+    if isinstance(data, (list, tuple)):
+        return all(_all_finite(v) for v in data)
+    return not isinstance(data, float) or math.isfinite(data)
+
+
+def _nonfinite_base_state(phi: float, args: argparse.Namespace, why: str) -> GranflowInputError:
+    return GranflowInputError(
+        f"stability dispersion: the base state (--phi {phi:g}, --p {args.p:g}, --I {args.I:g}, "
+        f"--p-f {args.p_f:g}) with these material.* values gives non-finite coefficients ({why}); "
+        "use values of physical size")
 
 
 def _all_pass(report_dict: dict) -> bool:
@@ -167,11 +188,19 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
         raise GranflowInputError(f"--phi must be in (0, 1) (got {phi})")
     from granflow.theory import dispersion
 
-    lead = dispersion.leading_order_max_growth(closure, phi, args.p, args.I, p_f=args.p_f, gas=args.gas)
+    import warnings
+
     k_values = np.logspace(0.0, np.log10(2.0 * np.pi / closure.material.d), DISPERSION_K_POINTS)
     thetas = np.linspace(0.0, np.pi, DISPERSION_THETA_POINTS, endpoint=False)
-    best = dispersion.most_unstable(closure, phi, args.p, args.I, k_values, thetas, p_f=args.p_f, gas=args.gas)
-    curve = dispersion.growth_curve(closure, phi, args.p, args.I, k_values, thetas, p_f=args.p_f, gas=args.gas)
+    state = (closure, phi, args.p, args.I)
+    try:
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            lead = dispersion.leading_order_max_growth(*state, p_f=args.p_f, gas=args.gas)
+            best = dispersion.most_unstable(*state, k_values, thetas, p_f=args.p_f, gas=args.gas)
+            curve = dispersion.growth_curve(*state, k_values, thetas, p_f=args.p_f, gas=args.gas)
+    except DISPERSION_ERRORS as err:
+        raise _nonfinite_base_state(phi, args, " ".join(str(err).split())[:80]) from None
     data = {
         "closure": closure.name,
         "parameters": closure.parameters(),
@@ -182,6 +211,8 @@ def cmd_dispersion(args: argparse.Namespace) -> int:
         "units": {"p": "Pa", "p_f": "Pa", "leading_order.growth": "m^2/s", "most_unstable.growth": "1/s",
                   "k": "1/m", "theta": "rad"},
     }
+    if not _all_finite(data):
+        raise _nonfinite_base_state(phi, args, "NaN or infinite growth rates")
     if args.plot:
         from granflow import plotting
 

@@ -241,7 +241,7 @@ def stop_on_sigint(sim) -> Iterator[None]:
 def output_directory(args: argparse.Namespace, config) -> Path:
     """The run directory, checked for writability (nothing created): ``--out``, else
     ``output.directory``, else ``runs/<case-file name>``."""
-    from granflow.cases.runner import CHECKPOINT_DIR, RUN_FILES
+    from granflow.cases.runner import CHECKPOINT_DIR, RUN_FILES, run_file_globs
     from granflow.output.paths import check_directory
 
     if args.out is not None:
@@ -250,7 +250,8 @@ def output_directory(args: argparse.Namespace, config) -> Path:
         out, what = config.output.directory, "output.directory"
     else:
         out, what = Path(DEFAULT_RUNS_DIR) / Path(args.case).stem, "output directory (default)"
-    return check_directory(out, what, files=RUN_FILES, subdirs=(CHECKPOINT_DIR,))
+    return check_directory(out, what, files=RUN_FILES, subdirs=(CHECKPOINT_DIR,),
+                           file_globs=run_file_globs(config))
 
 
 def completion_line(case, s: dict) -> str:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -41,6 +42,9 @@ KIND_KEYS = ("values", "range", "lhs")
 PARAMETER_KEYS = (*KIND_KEYS, "n")
 LOCAL_WORKERS = 2
 """Worker processes of the local cluster when neither --workers nor --scheduler is given."""
+WORKERS_PER_CORE = 4
+"""--workers may be at most this many times the machine's cores (``--workers 100000`` never
+finished starting its cluster)."""
 DEFAULT_RUNS_DIR = "runs"
 """Parent of the default sweep directory ``runs/<sweep-file name>``."""
 MAX_MEMBER_ERRORS = 3
@@ -357,6 +361,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                                  "combined with --scheduler")
     if args.workers is not None and args.workers < 1:
         raise GranflowInputError(f"--workers must be >= 1 (got {args.workers})")
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if args.workers is not None and args.workers > most:
+        raise GranflowInputError(f"--workers {args.workers}: more than {most} ({WORKERS_PER_CORE} per "
+                                 f"core on this machine of {os.cpu_count() or 1})")
     workers = None if args.scheduler is not None else (args.workers or LOCAL_WORKERS)
     spec, base_path = load_sweep(args.sweep_file)
     n = validate_members(spec)

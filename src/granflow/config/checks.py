@@ -4,7 +4,15 @@ a yield function that is not negative on the equilibrium line. Each problem is `
 """
 from __future__ import annotations
 
-from granflow.config.schema import COLUMN_KEYS, EQUILIBRIUM_I, KEY_SEP, MAX_STEPS, PHYSICAL_RANGES
+from granflow.config.schema import (
+    COLUMN_KEYS,
+    EQUILIBRIUM_I,
+    KEY_SEP,
+    MAX_RECORDS,
+    MAX_STEPS,
+    NUMERICS_RANGES,
+    PHYSICAL_RANGES,
+)
 
 
 def common_problems(cfg) -> list[tuple[str, str]]:
@@ -22,13 +30,22 @@ def common_problems(cfg) -> list[tuple[str, str]]:
                                    f"budget of {MAX_STEPS} (granflow.config.MAX_STEPS): the run could "
                                    "not reach stop_time; raise time.dt_max, or set time.max_steps to "
                                    "run part of it"))
+    interval = cfg.output.interval
+    if t.stop_time / interval > MAX_RECORDS:
+        out.append(("output.interval", f"stop_time / interval = {t.stop_time:g} s / {interval:g} s = "
+                                       f"{t.stop_time / interval:.3g} records, more than "
+                                       f"{MAX_RECORDS} (granflow.config.MAX_RECORDS; the output "
+                                       "times also cut the time step); raise output.interval"))
     if not cfg.case.allow_unphysical:
-        for name, (lo, hi, unit) in PHYSICAL_RANGES.items():
-            section, field = name.split(KEY_SEP)
-            value = getattr(getattr(cfg, section), field)
-            if not lo <= value <= hi:
-                out.append((name, f"{value:g} {unit} is outside the physical range [{lo:g}, {hi:g}] "
-                                  f"{unit} (set case.allow_unphysical = true for an unusual study)"))
+        for name, (lo, hi, unit) in {**PHYSICAL_RANGES, **NUMERICS_RANGES}.items():
+            value = cfg
+            for part in name.split(KEY_SEP):
+                value = getattr(value, part)
+            if value is not None and not lo <= value <= hi:
+                kind = "numerical" if name in NUMERICS_RANGES else "physical"
+                u = "" if unit == "-" else f" {unit}"
+                out.append((name, f"{value:g}{u} is outside the {kind} range [{lo:g}, {hi:g}]{u} "
+                                  "(set case.allow_unphysical = true for an unusual study)"))
     column = [(f"setup.{k}", getattr(cfg.setup, k)) for k in COLUMN_KEYS if hasattr(cfg.setup, k)]
     column_key, height = column[0] if column else ("grid.Lz", cfg.grid.Lz)
     if isinstance(height, float) and not cfg.material.d < height:
@@ -38,13 +55,17 @@ def common_problems(cfg) -> list[tuple[str, str]]:
             and cfg.numerics.surface != "indicator"):
         out.append(("output.fields", f'"c" (the material fraction) exists only with numerics.surface = '
                                      f'"indicator" (got {cfg.numerics.surface!r})'))
+    repeated = sorted({f for f in cfg.output.fields if cfg.output.fields.count(f) > 1})
+    if repeated:
+        out.append(("output.fields", f"{repeated} given more than once"))
     out += yield_problems(cfg)
     return out
 
 
 def yield_problems(cfg) -> list[tuple[str, str]]:
-    """The yield function Z must be >= 0 on the equilibrium line phi = phi_eq(I) (a negative Z
-    is a negative friction coefficient: the solver would only count the cells where it is)."""
+    """The yield function Z must be finite and >= 0 on the equilibrium line phi = phi_eq(I) (a
+    negative Z is a negative friction coefficient: the solver would only count the cells where it
+    is; a non-finite one, e.g. ``exp(1000*I)`` at I = 10 or ``1/I`` at rest, fails the run's steps)."""
     import numpy as np
 
     closure = cfg.make_closure()
@@ -53,10 +74,22 @@ def yield_problems(cfg) -> list[tuple[str, str]]:
         phi = np.asarray(closure.equilibrium.phi_eq(I), dtype=float)
         keep = phi > 0
         Z = np.asarray(closure.Z(phi[keep], I[keep]), dtype=float)
+    key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
+    if key == "closure.expression":
+        from granflow.rheology.derive import parse_yield_function, singular_points
+
+        poles = singular_points(parse_yield_function(cfg.closure.parameters()["expression"]), *EQUILIBRIUM_I)
+        if poles:
+            return [(key, f"the yield function is singular at I = {poles[0]:.4g} (within "
+                          f"{EQUILIBRIUM_I[0]:g} <= I <= {EQUILIBRIUM_I[1]:g})")]
+    nonfinite = np.flatnonzero(np.isnan(Z) | (Z == np.inf))
+    if nonfinite.size:
+        k = nonfinite[0]
+        return [(key, f"the yield function is not finite on the equilibrium line: Z(phi_eq(I), I) = "
+                      f"{Z[k]:.3g} at I = {I[keep][k]:.3g}")]
     negative = np.flatnonzero(Z < 0)
     if not negative.size:
         return []
     k = negative[0]
-    key = "closure.expression" if "expression" in cfg.closure.parameters() else "closure"
     return [(key, f"the yield function is negative on the equilibrium line: Z(phi_eq(I), I) = "
                   f"{Z[k]:.3g} at I = {I[keep][k]:.3g} (a negative friction coefficient)")]

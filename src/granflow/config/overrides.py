@@ -14,7 +14,7 @@ from typing import Any
 
 from granflow.config.tomlfile import KEY_SEP, short
 from granflow.errors import GranflowInputError
-from granflow.safe_toml import loads_value
+from granflow.safe_toml import MAX_NESTING, loads_value
 
 CASE_FILE_FORM = "section.key=value, e.g. grid.nx=80"
 """The form of an item, as said in the error for a malformed one (case files)."""
@@ -41,6 +41,9 @@ def parse_override(item: str, form: str = CASE_FILE_FORM) -> tuple[list[str], An
     parts = [p.strip() for p in key.split(KEY_SEP)]
     if not sep or not all(parts):
         raise GranflowInputError(f"--set {short(item)}: expected {form}")
+    if len(parts) > MAX_NESTING:
+        raise GranflowInputError(f"--set {short(item)}: a key of {len(parts)} parts; tables are "
+                                 f"nested at most {MAX_NESTING} levels deep")
     return parts, parse_value(text.strip(), key.strip())
 
 

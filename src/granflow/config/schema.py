@@ -59,6 +59,14 @@ MAX_CELLS = 4_000_000
 MAX_STEPS = 10_000_000
 """Step budget without ``time.max_steps``: ``stop_time / dt_max`` (a lower bound of the number of
 steps) above it is refused (a guard against ``dt_max = 1e-300``, which would step for ever)."""
+MIN_CFL = 1e-4
+"""Smallest CFL number: below it the step budget cannot be reached (``cfl = 1e-300`` gave a
+time step of 1e-301 s and overflowing matrices)."""
+MAX_RETRIES = 50
+"""Most dt halvings of one step (dt_max / 2**50 is ~1e-15 dt_max; more would halve towards 0)."""
+MAX_RECORDS = 100_000
+"""Most NetCDF records of a run, ``stop_time / output.interval`` (each record holds every field;
+the output times also cut the time step, so ``interval = 1e-12`` stepped for ever)."""
 PHYSICAL_RANGES = {
     "material.d": (1e-6, 0.1, "m"),
     "material.rho_s": (10.0, 3.0e4, "kg m^-3"),
@@ -66,10 +74,26 @@ PHYSICAL_RANGES = {
     "material.p_atm": (1.0, 1e9, "Pa"),
     "material.rho_f0": (1e-4, 3.0e3, "kg m^-3"),
     "gravity.g": (0.0, 300.0, "m s^-2"),
+    "material.c_I": (0.1, 10.0, "-"),
+    "grid.Lx": (1e-6, 1e5, "m"),
+    "grid.Lz": (1e-6, 1e5, "m"),
+    "gas.U_inj": (0.0, 1e3, "m s^-1"),
 }
 """Physical range [lo, hi] of the dimensional parameters (grains from 1 um powders to 10 cm
-boulders, solids from aerogels to tungsten, gases to liquids, gravity up to 30 g); a value outside
+boulders, solids from aerogels to tungsten, gases to liquids, gravity up to 30 g, boxes from 1 um
+to 100 km, gas injected at up to 1 km/s); a value outside
 is refused unless ``case.allow_unphysical = true``."""
+NUMERICS_RANGES = {
+    "numerics.eps": (1e-9, 1e4, "s^-1"),
+    "numerics.delta_p": (1e-9, 1e6, "Pa"),
+    "numerics.gravity_blend_velocity": (1e-12, 1e3, "m s^-1"),
+    "numerics.ambient.rho_a": (1e-6, 1e4, "kg m^-3"),
+    "numerics.ambient.eta_a": (1e-9, 1e4, "Pa s"),
+    "numerics.ambient.eta_b": (0.0, 1e4, "Pa s"),
+}
+"""Range [lo, hi] of the dimensional numerical parameters, many orders of magnitude around the
+defaults (``eps = 1e300`` or ``eta_a = 1e300`` only failed the first step, exit 1); a value
+outside is refused unless ``case.allow_unphysical = true``."""
 COLUMN_KEYS = ("H0", "h0", "H")
 """``[setup]`` keys of the initial column or layer height, compared with ``material.d``."""
 EQUILIBRIUM_I = (0.0, 10.0)
@@ -95,8 +119,9 @@ class CaseSection(Section):
     """``[case]``."""
 
     name: str = Field(description="case registry key (granflow list cases) [-]")
-    allow_unphysical: bool = Field(False, description="accept material and gravity parameters "
-                                   "outside the physical ranges of granflow.config.PHYSICAL_RANGES "
+    allow_unphysical: bool = Field(False, description="accept material, gravity and numerical "
+                                   "parameters outside the ranges of granflow.config.PHYSICAL_RANGES "
+                                   "and NUMERICS_RANGES "
                                    "(an unusual study, e.g. dimensionless units) [-]")
 
 
@@ -167,11 +192,12 @@ class TimeSection(Section):
     """``[time]``."""
 
     stop_time: float = Field(0.5, gt=0, description="final time [s]")
-    cfl: float = Field(0.3, gt=0, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
+    cfl: float = Field(0.3, ge=MIN_CFL, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
     dt_max: float = Field(1.0e-3, gt=0, description="largest time step [s]")
-    max_retries: int = Field(6, ge=0, description="dt halvings allowed for one step [-]")
-    max_steps: int | None = Field(None, ge=1, description="stop after this many steps in total, "
-                                  "counted from t = 0 [-] (default: no limit)")
+    max_retries: int = Field(6, ge=0, le=MAX_RETRIES, description="dt halvings allowed for one step [-]")
+    max_steps: int | None = Field(None, ge=1, le=MAX_STEPS, description="stop after this many steps in "
+                                  "total, counted from t = 0, at most granflow.config.MAX_STEPS [-] "
+                                  "(default: no limit)")
     stop_at_rest: float | None = Field(None, gt=0, description="end the run once the flow has been "
                                        "at rest (t_rest, output.rest_speed) for this long [s] "
                                        "(default: run to stop_time)")

@@ -17,6 +17,8 @@ from granflow.safe_toml import loads
 
 KEY_SEP = "."
 """Separator of the parts of a key path (``grid.nx``)."""
+MAX_TOML_BYTES = 10_000_000
+"""Largest case or sweep file read [bytes] (a case file is a few kB; ``/dev/zero`` never ended)."""
 
 
 def one_line(text: str) -> str:
@@ -40,9 +42,13 @@ def read_toml(path: str | Path) -> tuple[str, dict[str, Any]]:
     """Text and parsed content of a TOML file; errors say where (line, column) and what."""
     p = Path(path)
     try:
-        raw = p.read_bytes()
+        with open(p, "rb") as fh:
+            raw = fh.read(MAX_TOML_BYTES + 1)
     except OSError as err:
         raise GranflowInputError(f"{p}: cannot read the case file ({err.strerror or err})") from None
+    if len(raw) > MAX_TOML_BYTES:
+        raise GranflowInputError(f"{p}: more than {MAX_TOML_BYTES} bytes, not a case file "
+                                 "(granflow.config.tomlfile.MAX_TOML_BYTES)")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as err:

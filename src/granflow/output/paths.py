@@ -19,6 +19,11 @@ from granflow.errors import GranflowInputError
 
 PROBE_PREFIX = ".granflow-probe-"
 """Prefix of the temporary directory created (and removed) to probe a directory's writability."""
+DEFAULT_NAME_MAX = 255
+"""Longest file name (one path component) in bytes where the file system does not say
+(``os.pathconf(..., "PC_NAME_MAX")``): Linux's ext4, XFS, tmpfs and most others."""
+DEFAULT_PATH_MAX = 4096
+"""Longest whole path in bytes where the file system does not say (Linux's PATH_MAX)."""
 
 
 def _fail(what: str, path: Path, why: str) -> GranflowInputError:
@@ -34,6 +39,47 @@ def _probe(directory: Path, what: str, path: Path) -> None:
                     f"({err.strerror or type(err).__name__})") from None
 
 
+def _limit(directory: Path, name: str, default: int) -> int:
+    try:
+        return int(os.pathconf(directory, name))
+    except (OSError, ValueError, TypeError):
+        return default
+
+
+def _check_names(p: Path, what: str) -> None:
+    """Refuse a path with a component or a total length the file system cannot hold (the write
+    would fail with "File name too long" after the computation; ``exists()`` itself fails)."""
+    parent = Path(os.path.abspath(p)).parent
+    while not os.path.isdir(parent) and parent.parent != parent:
+        parent = parent.parent
+    full = os.fsencode(os.path.abspath(p))
+    path_max = _limit(parent, "PC_PATH_MAX", DEFAULT_PATH_MAX)
+    if len(full) >= path_max:
+        raise _fail(what, p, f"path of {len(full)} bytes is too long (at most {path_max - 1})")
+    name_max = _limit(parent, "PC_NAME_MAX", DEFAULT_NAME_MAX)
+    for part in p.parts:
+        if len(os.fsencode(part)) > name_max:
+            raise _fail(what, p, f"the name {part[:40]!r}... of {len(os.fsencode(part))} bytes is too "
+                                 f"long (at most {name_max})")
+
+
+def _check_entries(p: Path, what: str, files: Iterable[str], subdirs: Iterable[str],
+                   file_globs: Iterable[str]) -> None:
+    """The entries of the existing directory ``p`` that will be written must have the right kind."""
+    for name in subdirs:
+        sub = p / name
+        if (sub.exists() or sub.is_symlink()) and not sub.is_dir():
+            raise _fail(what, p, f"{str(sub)!r} exists and is not a directory")
+    for name in files:
+        f = p / name
+        if (f.exists() or f.is_symlink()) and not f.is_file():
+            raise _fail(what, p, f"{str(f)!r} exists and is not a regular file")
+    for pattern in file_globs:
+        for f in sorted(p.glob(pattern)):
+            if not f.is_file():
+                raise _fail(what, p, f"{str(f)!r} exists and is not a regular file")
+
+
 def _existing_ancestor(path: Path) -> Path:
     parent = path
     while not (parent.exists() or parent.is_symlink()):
@@ -44,7 +90,8 @@ def _existing_ancestor(path: Path) -> Path:
 
 
 def check_directory(path: str | os.PathLike, what: str = "output directory", *,
-                    files: Iterable[str] = (), subdirs: Iterable[str] = ()) -> Path:
+                    files: Iterable[str] = (), subdirs: Iterable[str] = (),
+                    file_globs: Iterable[str] = ()) -> Path:
     """Check that ``path`` is, or can be created as, a writable directory; create nothing.
 
     Parameters
@@ -56,6 +103,9 @@ def check_directory(path: str | os.PathLike, what: str = "output directory", *,
     files, subdirs : iterable of str
         Entries of the directory that will be written as files (must not be directories or
         devices if they exist) or as directories (must be directories if they exist).
+    file_globs : iterable of str
+        Glob patterns (relative to ``path``, e.g. ``"checkpoints/*.npz"``) of entries that may be
+        overwritten: each existing match must be a regular file.
 
     Returns
     -------
@@ -69,17 +119,11 @@ def check_directory(path: str | os.PathLike, what: str = "output directory", *,
     if not str(path).strip():
         raise GranflowInputError(f"{what}: empty path")
     p = Path(path)
+    _check_names(p, what)
     if p.exists() or p.is_symlink():
         if not p.is_dir():
             raise _fail(what, p, "exists and is not a directory")
-        for name in subdirs:
-            sub = p / name
-            if (sub.exists() or sub.is_symlink()) and not sub.is_dir():
-                raise _fail(what, p, f"{str(sub)!r} exists and is not a directory")
-        for name in files:
-            f = p / name
-            if (f.exists() or f.is_symlink()) and not f.is_file():
-                raise _fail(what, p, f"{str(f)!r} exists and is not a regular file")
+        _check_entries(p, what, files, subdirs, file_globs)
         _probe(p, what, p)
         return p
     parent = _existing_ancestor(p)
@@ -101,6 +145,7 @@ def check_file(path: str | os.PathLike, what: str = "output file") -> Path:
     if not str(path).strip():
         raise GranflowInputError(f"{what}: empty path")
     p = Path(path)
+    _check_names(p, what)
     if p.exists() or p.is_symlink():
         if p.is_dir():
             raise _fail(what, p, "is a directory")

@@ -11,7 +11,10 @@ and the divergence law is finite as |S| -> 0), else 1.
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
+import threading
 from dataclasses import dataclass
 
 import sympy as sp
@@ -33,6 +36,13 @@ _ALLOWED_FUNCTIONS = {
     for name in ("sqrt", "exp", "log", "sin", "cos", "tan", "atan", "tanh", "pi", "E", "Rational")
 }
 _ALLOWED_FUNCTIONS["ln"] = sp.log
+MAX_EXPONENT = 64
+"""Largest magnitude of a numeric exponent of a term in phi or I: SymPy expands and integrates
+powers as dense polynomials (``I**1e10`` or ``(1 + I)**200`` never finished; ``(0.4 + I)**64``
+takes 9 s)."""
+DERIVE_TIME_BUDGET_S = 60.0
+"""Wall-clock budget of :func:`derive_dilatancy` [s] (main thread only, where a POSIX timer can
+interrupt SymPy): a derivation that does not finish in it is bad input, not a hang."""
 
 
 def parse_yield_function(text: str) -> sp.Expr:
@@ -75,6 +85,14 @@ def parse_yield_function(text: str) -> sp.Expr:
     if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
         raise GranflowInputError(f"yield function {_text(text)}: not finite (it holds {sp.zoo if expr.has(sp.zoo) else 'oo or nan'}: "
                                  "a division by zero or an infinite constant)")
+    if expr.has(sp.I):
+        raise GranflowInputError(f"yield function {_text(text)}: not real (it holds the imaginary unit, "
+                                 "e.g. the square root of a negative constant)")
+    for power in expr.atoms(sp.Pow):
+        exponent = power.exp
+        if power.free_symbols and exponent.is_Number and abs(exponent) > MAX_EXPONENT:
+            raise GranflowInputError(f"yield function {_text(text)}: the exponent {_short(exponent)} is "
+                                     f"too large (at most {MAX_EXPONENT} in magnitude)")
     for number in expr.atoms(sp.Number):
         try:
             finite = math.isfinite(float(number))
@@ -83,7 +101,61 @@ def parse_yield_function(text: str) -> sp.Expr:
         if not finite:
             raise GranflowInputError(f"yield function {_text(text)}: the constant {_short(number)} is "
                                      "outside the range of double precision (|x| < 1.8e308)")
+    for node in sp.preorder_traversal(expr):  # constant terms such as exp(1000) or E**1000
+        if not node.free_symbols and not node.is_Number and isinstance(node, sp.Expr):
+            try:
+                finite = math.isfinite(float(sp.N(node)))
+            except (OverflowError, ValueError, TypeError):
+                finite = False
+            if not finite:
+                raise GranflowInputError(f"yield function {_text(text)}: the constant term "
+                                         f"{_short(node)} is not finite in double precision "
+                                         "(|x| < 1.8e308)")
     return expr
+
+
+SINGULARITY_TIME_BUDGET_S = 10.0
+"""Wall-clock budget of :func:`singular_points` [s]; beyond it no singularity is reported."""
+
+
+def singular_points(Z: sp.Expr, lo: float, hi: float) -> list[float]:
+    """The values of I in [lo, hi] where the yield function ``Z`` is singular (poles such as
+    ``1/(I - 0.5)``, which sampling misses), as SymPy finds them; empty where it cannot tell."""
+    try:
+        with _time_budget(SINGULARITY_TIME_BUDGET_S, "singularities"):
+            found = sp.singularities(Z, I, sp.Interval(lo, hi))
+        if not isinstance(found, sp.FiniteSet):
+            return []
+        return sorted(float(x) for x in found if x.is_real)
+    except (GranflowInputError, NotImplementedError, TypeError, ValueError, AttributeError):
+        return []
+
+
+class _OutOfTime(Exception):
+    pass
+
+
+@contextlib.contextmanager
+def _time_budget(seconds: float, what: str):
+    """Raise GranflowInputError if the block runs longer than ``seconds`` (main thread only)."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
+        yield
+        return
+
+    def expire(signum, frame):
+        raise _OutOfTime
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    except _OutOfTime:
+        raise GranflowInputError(f"{what}: the symbolic derivation did not finish within {seconds:g} s "
+                                 "(granflow.rheology.derive.DERIVE_TIME_BUDGET_S); simplify the "
+                                 "expression") from None
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 def _text(text: str) -> str:
@@ -152,6 +224,11 @@ def derive_dilatancy(Z: sp.Expr | str, simplify: bool = True) -> Derivation:
     if isinstance(Z, str):
         Z = parse_yield_function(Z)
     Z = sp.sympify(Z)
+    with _time_budget(DERIVE_TIME_BUDGET_S, f"yield function {_text(str(Z))}"):
+        return _derive(Z, simplify)
+
+
+def _derive(Z: sp.Expr, simplify: bool) -> Derivation:
     ZJ = Z.subs(I, _J)
     I1 = sp.Integer(0)
     try:

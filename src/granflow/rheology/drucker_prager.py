@@ -15,6 +15,11 @@ from pydantic import Field
 from granflow.rheology.base import CLOSURES, Closure, _arr
 
 
+
+MIN_DILATANCY_DELTA_DEG = 1e-3
+"""Smallest friction angle of :class:`DruckerPragerDilatancy` [deg]: psi divides by 1 - cos(delta),
+which is 0 in double precision below ~1e-6 deg (``delta_deg = 1e-300`` raised ZeroDivisionError)."""
+
 class DruckerPragerYield(Closure):
     """Mixin holding the internal friction angle.
 
@@ -81,7 +86,8 @@ class DruckerPragerDilatancy(DruckerPragerYield):
 
     summary: ClassVar[str] = "Z = sin(delta) + cos(delta) psi, f = psi (dilatancy angle)"
     source: ClassVar[str] = "Z1, f1, psi"
-    delta_deg: float = Field(30.0, gt=0, lt=90, description="internal friction angle [deg]")
+    delta_deg: float = Field(30.0, ge=MIN_DILATANCY_DELTA_DEG, lt=90,
+                             description="internal friction angle [deg]")
 
     @property
     def beta(self) -> float:
