@@ -81,7 +81,7 @@ whole number of cells, which the middle level (14 sqrt 2 cells over H0) is not."
 PLANS = {"main": [(0.5, "b0.9_phi0.58"), (1.0, "b0.9_phi0.58"), (2.0, "b0.9_phi0.58"),
                   (1.0, "b0.5_phi0.58"), (1.0, "injection")]}
 PLANS["all"] = [(a, s) for s in STATES for a in (0.5, 1.0, 2.0)]
-LX_OVER_H0 = {0.5: 6.2, 1.0: 4.8, 2.0: 3.8}
+LX_OVER_H0 = {0.5: 8.0, 1.0: 6.5, 2.0: 5.0}
 """Box length [H0] per aspect ratio (fluidised columns run ~2x further than the dry ones)."""
 LZ_OVER_H0 = 1.3
 """Box height [H0]."""
