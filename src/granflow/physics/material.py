@@ -54,11 +54,14 @@ import numpy as np
 
 from granflow.grid import Grid
 from granflow.physics.interface_capturing import limit_to_lower_bound
+from granflow.physics.material_kernel import fluxes_compiled, kernel_available
 from granflow.physics.transport import (
+    BOUND_RTOL,
     HALF,
     face_velocities,
     flux_divergence,
     limit_to_upper_bound,
+    limiter_passes,
     minmod,
 )
 
@@ -343,7 +346,19 @@ def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndar
 
 def _fluxes(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
     """The volume and solid fluxes of a stage: ``(F_c, F_phi, held)`` (they do not depend on the
-    dilatation, which only changes the material volume afterwards)."""
+    dilatation, which only changes the material volume afterwards). The compiled kernel
+    (:mod:`granflow.physics.material_kernel`) when Numba is installed, else the NumPy reference
+    :func:`_fluxes_numpy` (same arguments and result; equal bit for bit on the cases tested, the
+    held-back volume to round-off: a sum in another order)."""
+    if not kernel_available():
+        return _fluxes_numpy(grid, c, phi, u, w, dt, phi_max)
+    return fluxes_compiled(c, phi, u, w, dt, grid.dx, grid.dz, phi_max,
+                           phi_max * (1.0 + BOUND_RTOL), C_MIN, grid.periodic_x, limiter_passes(grid))
+
+
+def _fluxes_numpy(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
+    """NumPy reference of :func:`_fluxes`: donor-acceptor volume fluxes, overfill correction,
+    ``c >= 0``; MUSCL packing fluxes, ``phi >= 0``, ``phi <= phi_max``."""
     fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
     fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
     gx, gz = solid_fluxes(grid, packing(c, phi), c > C_MIN, fcx, fcz)

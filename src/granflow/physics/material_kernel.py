@@ -1,0 +1,52 @@
+"""Compiled (Numba) kernel of the fluxes of one stage of the material-indicator transport (scheme
+v2, issue 12), :func:`granflow.physics.material._fluxes`.
+
+The same scheme as the NumPy reference :func:`granflow.physics.material._fluxes_numpy`: the
+donor-acceptor volume fluxes (Hirt & Nichols 1981 with Youngs' normal), the overfill correction of
+partial cells, the outflow limiter for ``c >= 0``, the upwind MUSCL-minmod packing fluxes
+``psi_f F_c`` (slopes between material cells), the outflow limiter for ``phi >= 0`` and the
+upper-bound limiter for ``phi <= phi_max`` -- written as loops over faces and cells with the same
+floating-point operations in the same order, so the fluxes agree bit for bit
+(tests/test_material_kernel.py). Why: the consistent momentum transport needs the solid fluxes at
+every Picard sweep (:func:`granflow.physics.material.material_solid_fluxes`); in NumPy they were
+~8 % of the Lagree column's v2 CPU time at 128^2 (benchmarks/README.md).
+
+Numba is imported on first use (``import granflow`` stays light); compiled functions are cached
+on disk (``cache=True``).
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+
+@functools.cache
+def _kernels():
+    """The compiled fluxes (loaded from Numba's cache after the first run); ImportError without Numba."""
+    from granflow.physics._material_numba import fluxes
+
+    return fluxes
+
+
+@functools.cache
+def kernel_available() -> bool:
+    """True if Numba imports (the compiled kernel is then used by ``material._fluxes``); asked once."""
+    try:
+        _kernels()
+    except ImportError:
+        return False
+    return True
+
+
+def fluxes_compiled(c: np.ndarray, phi: np.ndarray, u: np.ndarray, w: np.ndarray, dt: float,
+                    dx: float, dz: float, phi_max: float, cap: float, c_min: float, periodic: bool,
+                    max_passes: int):
+    """``((fcx, fcz), (gx, gz), held)`` of one stage (see ``material._fluxes_numpy``)."""
+    def f64(a):
+        return np.ascontiguousarray(a, dtype=np.float64)
+
+    fcx, fcz, gx, gz, held = _kernels()(f64(c), f64(phi), f64(u), f64(w), float(dt), float(dx),
+                                        float(dz), float(phi_max), float(cap), float(c_min),
+                                        bool(periodic), int(max_passes))
+    return (fcx, fcz), (gx, gz), float(held)
