@@ -16,27 +16,16 @@ on disk (``cache=True``).
 """
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
+from granflow.physics.lazy_kernel import LazyKernel
 
-@functools.cache
-def _kernels():
-    """The compiled fluxes (loaded from Numba's cache after the first run); ImportError without Numba."""
-    from granflow.physics._material_numba import fluxes
-
-    return fluxes
+_KERNEL = LazyKernel("granflow.physics._material_numba", "fluxes")
 
 
-@functools.cache
 def kernel_available() -> bool:
     """True if Numba imports (the compiled kernel is then used by ``material._fluxes``); asked once."""
-    try:
-        _kernels()
-    except ImportError:
-        return False
-    return True
+    return _KERNEL.available()
 
 
 def fluxes_compiled(c: np.ndarray, phi: np.ndarray, u: np.ndarray, w: np.ndarray, dt: float,
@@ -46,7 +35,7 @@ def fluxes_compiled(c: np.ndarray, phi: np.ndarray, u: np.ndarray, w: np.ndarray
     def f64(a):
         return np.ascontiguousarray(a, dtype=np.float64)
 
-    fcx, fcz, gx, gz, held = _kernels()(f64(c), f64(phi), f64(u), f64(w), float(dt), float(dx),
+    fcx, fcz, gx, gz, held = _KERNEL.get()(f64(c), f64(phi), f64(u), f64(w), float(dt), float(dx),
                                         float(dz), float(phi_max), float(cap), float(c_min),
                                         bool(periodic), int(max_passes))
     return (fcx, fcz), (gx, gz), float(held)

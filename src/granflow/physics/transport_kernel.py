@@ -14,33 +14,22 @@ on disk (``cache=True``).
 """
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
+from granflow.physics.lazy_kernel import LazyKernel
 
-@functools.cache
-def _kernels():
-    """The compiled step (loaded from Numba's cache after the first run); ImportError without Numba."""
-    from granflow.physics._transport_numba import advect
-
-    return advect
+_KERNEL = LazyKernel("granflow.physics._transport_numba", "advect")
 
 
-@functools.cache
 def kernel_available() -> bool:
     """True if Numba imports (the compiled kernel is then used by ``advect``); asked once."""
-    try:
-        _kernels()
-    except ImportError:
-        return False
-    return True
+    return _KERNEL.available()
 
 
 def advect_compiled(phi: np.ndarray, u: np.ndarray, w: np.ndarray, dt: float, dx: float, dz: float,
                     phi_max: float | None, cap: float, periodic: bool, max_passes: int):
     """``(phi_new, flux_x, flux_z, held_back)`` of one step (see ``transport.advect``)."""
-    return _kernels()(np.ascontiguousarray(phi, dtype=np.float64), np.ascontiguousarray(u, dtype=np.float64),
+    return _KERNEL.get()(np.ascontiguousarray(phi, dtype=np.float64), np.ascontiguousarray(u, dtype=np.float64),
                       np.ascontiguousarray(w, dtype=np.float64), float(dt), float(dx), float(dz),
                       0.0 if phi_max is None else float(phi_max), phi_max is not None, float(cap),
                       bool(periodic), int(max_passes))
