@@ -7,21 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from granflow.physics import momentum as mom
-from granflow.physics.transport import flux_face_fraction
 
 
 class GravityWeights:
     """Gravity of :class:`granflow.model.Model` (a mixin; not used alone)."""
-
-    def gravity_force(self, phi, vel, dt: float) -> np.ndarray:
-        """``phi_f rho_s g`` [N m^-3] with the centred ``phi_f`` or, if ``consistent_gravity``, the
-        face fraction of the mass flux of a step with velocity ``vel``
-        (:func:`granflow.physics.transport.flux_face_fraction`), evaluated at ``vel``."""
-        phi_face = (flux_face_fraction(self.grid, phi, vel, dt, self.gravity_blend_velocity,
-                                       self.material.phi_max, self.phi_transport)
-                    if self.consistent_gravity else None)
-        return mom.gravity_force(self.ops, phi, self.material.rho_s, self.gravity, phi_face)
 
     def blend_velocity(self, dt: float) -> float:
         """Blend velocity ``u_b`` of the step's gravity weight [m s^-1] (:meth:`gravity_split`):
@@ -39,11 +28,14 @@ class GravityWeights:
         """Gravity force of the step as ``f_0 - drag * u^{n+1}`` [N m^-3], ``drag >= 0``
         [kg m^-3 s^-1].
 
-        The energy-consistent weight (:meth:`gravity_force`) on a face slower than the blend
-        velocity ``u_b`` is linear in the face velocity, ``phi_f = c + s (w_up - c) u/u_b``
+        The energy-consistent weight (the face fraction of the step's solid flux; v1:
+        :func:`granflow.physics.transport.flux_face_fraction`) on a face slower than the blend
+        velocity ``u_b`` (:meth:`blend_velocity`) is linear in the face velocity,
+        ``phi_f = c + s (w_up - c) u/u_b``
         (``c`` centred, ``w_up`` the upwind flux fraction for the direction ``s`` of ``u^n``). Where
         ``-g s (w_up - c) > 0`` (e.g. a bed surface: lighter downstream) this is a drag of rate
-        ``~|g|/u_b`` (1.3e4 s^-1 for the default ``u_b = eps Lz`` with Lz = 0.15 m). Explicit, it is stable only for
+        ``~|g|/u_b`` (v1's ``u_b = eps Lz``, Lz = 0.15 m: 1.3e4 s^-1; v2's ``|g| dt``: ~1/dt).
+        Explicit, it is stable only for
         ``|g| dt/u_b < 2``; the yield viscosity hides that in a dense pile, but where it vanishes
         (``p -> 0``, a fluidised bed) a surface at rest oscillates with growing amplitude.
         So that part is implicit (``drag`` joins the mass matrix); the rest (saturated

@@ -59,30 +59,6 @@ def face_density(ops: Operators, phi, rho_s: float, rho_a: float) -> np.ndarray:
     return np.maximum(ops.cell_to_face @ np.ravel(phi) * rho_s, rho_a)
 
 
-def gravity_force(ops: Operators, phi, rho_s: float, gravity, phi_face=None) -> np.ndarray:
-    """Body force ``phi_f rho_s g`` on the velocity unknowns [N m^-3] (grains only).
-
-    Parameters
-    ----------
-    ops : Operators
-    phi : ndarray, (nx, nz)
-        Solid fraction [-].
-    phi_face : ndarray, (n_unknowns,), optional
-        Face fraction to use instead of the centred mean of ``phi`` (e.g.
-        :func:`granflow.physics.transport.flux_face_fraction`).
-    rho_s : float
-        Grain density [kg m^-3].
-    gravity : (float, float)
-        ``(g_x, g_z)`` [m s^-2]; a tilted vector models a slope.
-    """
-    g = ops.grid
-    phi_f = ops.cell_to_face @ np.ravel(phi) if phi_face is None else np.asarray(phi_face)
-    force = np.empty(g.n_unknowns)
-    force[g.u_slice] = phi_f[g.u_slice] * rho_s * gravity[0]
-    force[g.w_slice] = phi_f[g.w_slice] * rho_s * gravity[1]
-    return force
-
-
 class Advection(str, Enum):
     """Spatial scheme of the explicit momentum advection ``(u . grad) u``."""
 
