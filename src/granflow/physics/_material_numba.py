@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from granflow.physics._transport_numba import limit, minmod
+from granflow.physics._transport_numba import limit, minmod, scale_fluxes
 
 HALF = 0.5
 TINY = np.finfo(np.float64).tiny
@@ -157,19 +157,8 @@ def limit_to_lower_bound(q, fx, fz, dt, dx, dz, periodic):
             if out > q[i, j]:
                 any_over = True
                 r[i, j] = max(q[i, j], 0.0) / out
-    if not any_over:
-        return
-    first = 0 if periodic else 1
-    for i in range(first, nx):
-        im = (i - 1) % nx
-        for j in range(nz):
-            fx[i, j] *= r[im, j] if fx[i, j] > 0.0 else r[i, j]
-    if periodic:
-        for j in range(nz):
-            fx[nx, j] = fx[0, j]
-    for i in range(nx):
-        for j in range(1, nz):
-            fz[i, j] *= r[i, j - 1] if fz[i, j] > 0.0 else r[i, j]
+    if any_over:
+        scale_fluxes(fx, fz, r, periodic, True)
 
 
 @njit(cache=True)

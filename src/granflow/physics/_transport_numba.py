@@ -65,6 +65,31 @@ def stage(phi, fx, fz, dt, dx, dz, out):
 
 
 @njit(cache=True)
+def scale_fluxes(fx, fz, r, periodic, by_donor):
+    """Multiply every interior face flux by the factor ``r`` (nx, nz) of the cell it leaves
+    (``by_donor``: an outflow limiter) or of the cell it enters (an inflow limiter), in place; the
+    periodic image column ``fx[nx]`` is kept equal to ``fx[0]``."""
+    nx, nz = r.shape
+    first = 0 if periodic else 1
+    for i in range(first, nx):
+        im = (i - 1) % nx
+        for j in range(nz):
+            if by_donor:
+                fx[i, j] *= r[im, j] if fx[i, j] > 0.0 else r[i, j]
+            else:
+                fx[i, j] *= r[i, j] if fx[i, j] > 0.0 else r[im, j]
+    if periodic:
+        for j in range(nz):
+            fx[nx, j] = fx[0, j]
+    for i in range(nx):
+        for j in range(1, nz):
+            if by_donor:
+                fz[i, j] *= r[i, j - 1] if fz[i, j] > 0.0 else r[i, j]
+            else:
+                fz[i, j] *= r[i, j] if fz[i, j] > 0.0 else r[i, j - 1]
+
+
+@njit(cache=True)
 def limit(phi, fx, fz, dt, dx, dz, phi_max, cap, periodic, max_passes):
     """The passes of ``limit_to_upper_bound`` on ``fx``, ``fz`` in place."""
     nx, nz = phi.shape
@@ -90,17 +115,7 @@ def limit(phi, fx, fz, dt, dx, dz, phi_max, cap, periodic, max_passes):
                     r[i, j] = 1.0 - (e / inflow if inflow > e else 1.0)
                 else:
                     r[i, j] = 1.0
-        first = 0 if periodic else 1
-        for i in range(first, nx):
-            im = (i - 1) % nx
-            for j in range(nz):
-                fx[i, j] *= r[i, j] if fx[i, j] > 0.0 else r[im, j]
-        if periodic:
-            for j in range(nz):
-                fx[nx, j] = fx[0, j]
-        for i in range(nx):
-            for j in range(1, nz):
-                fz[i, j] *= r[i, j] if fz[i, j] > 0.0 else r[i, j - 1]
+        scale_fluxes(fx, fz, r, periodic, False)
 
 
 @njit(cache=True)
