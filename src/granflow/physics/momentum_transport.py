@@ -34,13 +34,20 @@ backward-Euler term ``m^n |u^{n+1} - u^n|^2 / 2`` and the advection term
 ``rho_s dt sum [u^{n+1} . A - |u^{n+1}|^2 div_dual F / 2] dV`` (:func:`advection_energy_rate`),
 which vanishes for centred face values and is the upwinding's numerical dissipation otherwise.
 
-NumPy only (a few whole-array operations per call).
+The divergence is a compiled loop when Numba is installed
+(:mod:`granflow.physics.momentum_kernel`), else the NumPy reference :func:`_divergence_numpy`
+(whole-array operations); the two agree bit for bit (tests/test_momentum_kernel.py).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from granflow.grid import Grid
+from granflow.physics.momentum_kernel import (
+    divergence_compiled,
+    dual_mass_divergence_compiled,
+    kernel_available,
+)
 from granflow.physics.transport import flux_divergence
 
 HALF = 0.5
@@ -121,7 +128,16 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
 
 
 def _divergence(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: bool, theta: float):
-    """The x- and z-momentum parts of :func:`momentum_flux_divergence` on whole face arrays
+    """The compiled kernel (:mod:`granflow.physics.momentum_kernel`) when Numba is installed,
+    else :func:`_divergence_numpy` (same arguments and result)."""
+    if not kernel_available():
+        return _divergence_numpy(u, w, fx, fz, dx, dz, per, second_order, theta)
+    return divergence_compiled(u, w, fx, fz, dx, dz, per, second_order, theta)
+
+
+def _divergence_numpy(u, w, fx, fz, dx: float, dz: float, per: bool, second_order: bool, theta: float):
+    """NumPy reference of :func:`_divergence`: the x- and z-momentum parts of
+    :func:`momentum_flux_divergence` on whole face arrays
     ``u (n+1, m)``, ``w (n, m+1)`` (walls at the array edges unless ``per`` in x); returns the
     interior-face arrays ``(a_u, b)``."""
     if per:
@@ -169,7 +185,10 @@ def dual_mass_divergence(ops, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
     """``div_dual F = cell_to_face(div F)`` at the velocity unknowns [s^-1]: the rate of change of
     the dual-cell solid fraction, ``phi_f^{n+1} = phi_f^n - dt div_dual F`` (module docstring).
     :func:`momentum_flux_divergence` of a uniform velocity ``U`` along a periodic direction equals
-    ``U div_dual F`` (tested): the dual mass fluxes are the ones this identity implies."""
+    ``U div_dual F`` (tested): the dual mass fluxes are the ones this identity implies. A compiled
+    loop when Numba is installed (the same products and sums, bit for bit), else the sparse product."""
+    if kernel_available():
+        return dual_mass_divergence_compiled(fx, fz, ops.grid.dx, ops.grid.dz, ops.grid.periodic_x)
     return ops.cell_to_face @ flux_divergence(ops.grid, fx, fz).ravel()
 
 
