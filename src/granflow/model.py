@@ -125,6 +125,15 @@ from granflow.solvers import make_linear_solver, pardiso_available
 from granflow.state import State
 
 
+def _option(enum_type, value, what: str):
+    """``enum_type(value)``, or a GranflowInputError naming ``what`` and the accepted values."""
+    try:
+        return enum_type(value)
+    except ValueError:
+        raise GranflowInputError(f"Model: unknown {what} {value!r}; expected one of "
+                                 f"{[e.value for e in enum_type]}") from None
+
+
 class Model(ClosureCoefficients, GravityWeights):
     """Grid + closure + gravity + wall conditions + numerical parameters; :meth:`advance`.
 
@@ -259,56 +268,24 @@ class Model(ClosureCoefficients, GravityWeights):
             raise GranflowInputError(f"Model: momentum_theta must be in [{mt.MINMOD_THETA}, {mt.MC_THETA}], "
                                      f"got {momentum_theta!r}")
         self.momentum_theta = float(momentum_theta)
-        try:
-            self.advection = mom.Advection(advection)
-        except ValueError:
-            raise GranflowInputError(f"Model: unknown advection scheme {advection!r}; expected one of "
-                                     f"{[a.value for a in mom.Advection]}") from None
-        try:
-            self.phi_transport = PhiScheme(phi_transport)
-        except ValueError:
-            raise GranflowInputError(f"Model: unknown phi_transport {phi_transport!r}; expected one of "
-                                     f"{[a.value for a in PhiScheme]}") from None
-        try:
-            self.surface = Surface(surface)
-        except ValueError:
-            raise GranflowInputError(f"Model: unknown surface {surface!r}; expected one of "
-                                     f"{[a.value for a in Surface]}") from None
+        self.advection = _option(mom.Advection, advection, "advection scheme")
+        self.phi_transport = _option(PhiScheme, phi_transport, "phi_transport")
+        self.surface = _option(Surface, surface, "surface")
         if self.surface is Surface.INDICATOR:  # the reconstructed surface replaces these
             self.isochoric_interface, self.interface_packing = 0, False  # not consistent_gravity
-        try:
-            self.base_friction = (BaseFriction(base_friction) if base_friction is not None
-                                  else BaseFriction.WALL if self.surface is Surface.INDICATOR
-                                  else BaseFriction.CENTRE)
-        except ValueError:
-            raise GranflowInputError(f"Model: unknown base_friction {base_friction!r}; expected one of "
-                                     f"{[a.value for a in BaseFriction]}") from None
+        self.base_friction = (_option(BaseFriction, base_friction, "base_friction") if base_friction is not None
+                              else BaseFriction.WALL if self.surface is Surface.INDICATOR
+                              else BaseFriction.CENTRE)
         self._blend_set = gravity_blend_velocity is not None
         self.gravity_blend_velocity = (self.eps * grid.Lz if gravity_blend_velocity is None
                                        else float(gravity_blend_velocity))
         if not self.gravity_blend_velocity > 0:
             raise GranflowInputError("Model: gravity_blend_velocity must be > 0")
-        # "direct": SciPy's sparse LU (the reference, fastest below ~1e4 unknowns); "amg": FGMRES with
-        # the block AMG preconditioner of granflow.solvers.saddle (pays above ~2e4 unknowns).
-        try:
-            choice = LinearSolverChoice(linear_solver)
-        except ValueError:
-            raise GranflowInputError(f"Model: unknown linear_solver {linear_solver!r}; expected one of "
-                                     f"{[c.value for c in LinearSolverChoice]}") from None
-        if choice is LinearSolverChoice.AUTO:  # the banded systems are small: a direct solver
-            size = grid.n_unknowns + grid.n_cells
-            choice = (LinearSolverChoice.PARDISO if pardiso_available()
-                      else LinearSolverChoice.DIRECT if self.ambient.velocity_band and size < AUTO_BANDED_DIRECT_UNKNOWNS
-                      else LinearSolverChoice.AMG if size >= AUTO_AMG_UNKNOWNS
-                      else LinearSolverChoice.DIRECT)
+        choice = self._linear_solver_choice(_option(LinearSolverChoice, linear_solver, "linear_solver"))
         self.linear_solver_name = choice.value
         self._stable_pattern = choice is LinearSolverChoice.PARDISO
         """Pressure unknowns = every dense cell (free ones pinned to 0), so that the matrix
         pattern does not change with the active set and PARDISO keeps its analysis."""
-        if choice is LinearSolverChoice.PARDISO and not pardiso_available():
-            raise GranflowInputError("linear_solver 'pardiso' (numerics.linear_solver) needs the optional "
-                                     "dependency pypardiso with Intel MKL: pip install 'granflow[fast]' "
-                                     "(x86-64 only); or use 'auto' or 'direct'")
         self.velocity_band = (None if choice is LinearSolverChoice.AMG or not self.ambient.velocity_band
                               else self.ambient.velocity_band)
         """The velocity band in use [cells] (:attr:`AmbientParams.velocity_band`; None: off, or the AMG)."""
@@ -316,14 +293,35 @@ class Model(ClosureCoefficients, GravityWeights):
         self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
                               else make_linear_solver(choice.value) if choice is LinearSolverChoice.PARDISO
                               else make_linear_solver(choice.value, grid=grid))
-        self.gas = None
-        self.gas_coupling: GasCoupling | None = None
+        self.gas_coupling = self._gas_coupling(gas, open_top, U_inj)
+        self.gas = None if self.gas_coupling is None else self.gas_coupling.gas
+
+    def _gas_coupling(self, gas, open_top: bool, U_inj) -> GasCoupling | None:
+        """The pore-gas coupling of ``gas`` (None without a gas law, which allows neither an
+        injection nor an open top)."""
         if gas is None or gas == GasLaw.NONE:
             if open_top or np.any(np.asarray(U_inj, dtype=float) != 0.0):
                 raise GranflowInputError("Model: U_inj and open_top need a gas law (gas=...)")
-        else:
-            self.gas_coupling = GasCoupling(grid, self.ops, self.material, gas, open_top, U_inj)
-            self.gas = self.gas_coupling.gas
+            return None
+        return GasCoupling(self.grid, self.ops, self.material, gas, open_top, U_inj)
+
+    def _linear_solver_choice(self, choice: LinearSolverChoice) -> LinearSolverChoice:
+        """The solver of ``numerics.linear_solver = choice``: "direct" is SciPy's sparse LU (the
+        reference, fastest below ~1e4 unknowns), "amg" FGMRES with the block AMG preconditioner of
+        :mod:`granflow.solvers.saddle` (pays above ~2e4 unknowns), "pardiso" MKL PARDISO; "auto"
+        takes PARDISO when installed, else the direct solver for the small banded systems or below
+        :data:`AUTO_AMG_UNKNOWNS`, else the AMG."""
+        if choice is LinearSolverChoice.AUTO:
+            size = self.grid.n_unknowns + self.grid.n_cells
+            choice = (LinearSolverChoice.PARDISO if pardiso_available()
+                      else LinearSolverChoice.DIRECT if self.ambient.velocity_band and size < AUTO_BANDED_DIRECT_UNKNOWNS
+                      else LinearSolverChoice.AMG if size >= AUTO_AMG_UNKNOWNS
+                      else LinearSolverChoice.DIRECT)
+        if choice is LinearSolverChoice.PARDISO and not pardiso_available():
+            raise GranflowInputError("linear_solver 'pardiso' (numerics.linear_solver) needs the optional "
+                                     "dependency pypardiso with Intel MKL: pip install 'granflow[fast]' "
+                                     "(x86-64 only); or use 'auto' or 'direct'")
+        return choice
 
     # --- fields -------------------------------------------------------------------------------
     @cached_property
