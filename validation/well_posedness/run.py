@@ -32,7 +32,7 @@ to t = 0.5 (``--extra 256``; saved in data/ here). Measured per model, level and
   Barker window, inside it, above it; the rest is quasi-static (|S| < 10 eps, eps = 5e-3 the
   regularisation rate). I = c_I d |S| / sqrt(p / rho_s), c_I = 2, d = 1/40, rho_s = 1/phi_max.
 
-Run:   python validation/well_posedness/run.py [--extra 256] [--plot-only] [--quick]
+Run:   python validation/well_posedness/run.py [--extra 256 [--force]] [--plot-only] [--quick]
 Time:  seconds (analysis of saved data); ``--extra 256``: ~2 min per model (50 steps at 256 x 64).
 """
 from __future__ import annotations
@@ -206,13 +206,14 @@ def available(results: dict) -> list[tuple[str, int, str, Path]]:
 
 
 def run_extra(level: int, results: dict, models=None, t_end: float = EXTRA_TIME,
-              workdir: Path | None = None, datadir: Path = DATA) -> None:
-    """Short runs at ``level`` to ``t_end`` with the fields kept (saved in ``datadir``)."""
+              workdir: Path | None = None, datadir: Path = DATA, force: bool = False) -> None:
+    """Short runs at ``level`` to ``t_end`` with the fields kept (saved in ``datadir``); runs
+    already in ``results`` are kept unless ``force``."""
     L = _lagree()
     workdir = workdir or ROOT / "runs" / "validation_well_posedness"
     for model in models or L.MODELS:
         name = L.tag(L.FIELD_ASPECT, model, level)
-        if name in results.setdefault("extra_runs", {}):
+        if name in results.setdefault("extra_runs", {}) and not force:
             continue
         rec = L.run_one(L.FIELD_ASPECT, model, level, workdir=workdir, datadir=datadir,
                         stop_time=t_end, keep_fields=True)
@@ -340,6 +341,7 @@ def main(argv=None) -> dict:
     p.add_argument("--extra", type=int, default=0, help="also run this level to t = 0.5 (e.g. 256)")
     p.add_argument("--plot-only", action="store_true", help="(default behaviour) analyse saved data")
     p.add_argument("--quick", action="store_true", help="smoke test: metrics of a 16-cell, 20-step run")
+    p.add_argument("--force", action="store_true", help="redo the --extra runs already saved")
     args = p.parse_args(argv)
     win = window()
     if args.quick:
@@ -352,7 +354,7 @@ def main(argv=None) -> dict:
     results = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
     results["window"] = win
     if args.extra:
-        run_extra(args.extra, results)
+        run_extra(args.extra, results, force=args.force)
     metrics: dict = {}
     for model, n, name, datadir in available(results):
         metrics.setdefault(model, {})[str(n)] = analyse_run(name, datadir, win)
