@@ -118,7 +118,8 @@ class ScheduledEntries(MutableMapping):
     """``name -> entry`` of the objects a simulation calls on their schedules, in insertion order.
 
     An entry is callable as ``entry(simulation)`` and has a ``schedule`` (:class:`Schedule`).
-    Optional methods the simulation uses when present: ``finalize(simulation, completed)`` at the
+    Optional methods the simulation uses when present: ``initialize(simulation)`` at the start of
+    its first :meth:`Simulation.run`, ``finalize(simulation, completed)`` at the
     end of every :meth:`Simulation.run` (``completed``: it reached the stop time or its step
     limit), ``checkpoint_payload(simulation) -> (arrays, scalars)`` and
     ``restore_checkpoint(arrays, scalars)`` for restarts, ``close()`` in :meth:`Simulation.close`.

@@ -377,6 +377,10 @@ class Simulation:
                                   + nonfinite_message(self.state, self.model.grid),
                                   t=self.state.t, step=self.state.step)
             t0 = time.perf_counter()
+            for _, entry in list(self._entries()):
+                initialize = getattr(entry, "initialize", None)
+                if initialize is not None:
+                    initialize(self)
             self._run_callbacks()
             self.timings["diagnostics"] += time.perf_counter() - t0
         while not self.done() and not self.stop_requested:
