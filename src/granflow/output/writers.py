@@ -109,7 +109,8 @@ class NetCDFOutputWriter:
         return self._writer.n_records if self._writer is not None else 0
 
     def open(self) -> None:
-        """Create the file (with its header), or continue it after a restore (idempotent)."""
+        """Create the file (with its header, and its directory), or continue it after a restore
+        (idempotent)."""
         if self._writer is not None:
             return
         if self.restart_time is not None and self.path.exists():
@@ -118,6 +119,7 @@ class NetCDFOutputWriter:
             times = self._writer.times
             self.last_time = float(times.max()) if times.size else -np.inf
         else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
             self._writer = NetCDFWriter(self.path, self.coords, self.variables, self.global_attrs,
                                         **self._kwargs)
 
