@@ -13,6 +13,7 @@ from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.model import Model
 from granflow.output import (
+    BasalProbes,
     Checkpointer,
     FrontRecorder,
     NetCDFOutputWriter,
@@ -180,3 +181,27 @@ def test_a_failing_run_leaves_its_file_and_a_checkpoint_and_restarts_bit_for_bit
     for name in expected:
         np.testing.assert_array_equal(got[name], expected[name], err_msg=name)
     assert restarted.diagnostics["front"].t == reference.diagnostics["front"].t
+
+
+def test_basal_probes_record_their_history_and_restore_it(tmp_path):
+    sim = collapse()
+    every_3 = IterationInterval(3)
+    probes = BasalProbes(sim.model.grid, [0.015, 0.11], schedule=every_3)
+    sim.diagnostics["probes"] = probes
+    bottom = []
+    sim.add_callback(lambda s: bottom.append(s.state.p[:, 0].copy()), every_3, name="bottom")
+    sim.run()
+    steps = len(sim.reports)
+    assert len(probes.t) == len(bottom) == steps // 3 + 1 and probes.t[0] == 0.0
+    np.testing.assert_array_equal(np.array(probes.p), np.array(bottom)[:, [1, 11]])
+    assert probes.cells.tolist() == [1, 11] and probes.p[0][0] > 0 and probes.p[0][1] == 0  # column, ambient
+    arrays, scalars = sim.checkpoint_payload()
+    again = BasalProbes(sim.model.grid, [0.015, 0.11], schedule=IterationInterval(3))
+    fresh = collapse()
+    fresh.diagnostics["probes"] = again
+    fresh.restore_checkpoint(arrays, scalars)
+    assert again.t == probes.t
+    np.testing.assert_array_equal(np.array(again.p_f), np.array(probes.p_f))
+    np.testing.assert_array_equal(np.array(again.p), np.array(probes.p))
+    with pytest.raises(GranflowInputError, match=r"diagnostics\['probes'\].*schedule.*None"):
+        collapse().diagnostics["probes"] = BasalProbes(sim.model.grid, [0.01])

@@ -17,6 +17,7 @@ import numpy as np
 from granflow import diagnostics as dg
 from granflow.errors import GranflowInputError
 from granflow.output.netcdf import FIELD_DIMS, TIME_DIM, VariableSpec
+from granflow.schedules import Schedule, check_schedule
 
 if TYPE_CHECKING:
     from granflow.grid import Grid
@@ -135,22 +136,54 @@ def kinetic_energy_output(unit: Callable[[str], str] = si_unit) -> Output:
 
 
 class BasalProbes:
-    """Pressures of the bottom cell under given x positions (the cell containing each x).
+    """Pressures p_f and p [Pa] of the bottom cell under given x positions (the cell containing
+    each x): variables of a writer (:meth:`outputs`, :meth:`coords`) and, given a schedule, a
+    recorder of their history (``simulation.diagnostics["probes"] = probes``; :attr:`t`,
+    :attr:`p_f`, :attr:`p`, kept in checkpoints).
 
     Parameters
     ----------
     grid : Grid
     x : sequence of float
         Probe positions [m] (outside the box: the first or last column).
+    schedule : TimeInterval or IterationInterval, optional
+        When to record (needed only as a recorder).
     """
 
-    def __init__(self, grid: Grid, x: Iterable[float]) -> None:
+    KEYS = ("probes.t", "probes.p_f", "probes.p")
+    """Checkpoint arrays of the history: times [s], then p_f and p [Pa] (record, probe)."""
+
+    def __init__(self, grid: Grid, x: Iterable[float], schedule: Schedule | None = None) -> None:
         xs = np.asarray(list(x), dtype=float)
         if xs.ndim != 1 or not np.all(np.isfinite(xs)):
             raise GranflowInputError(f"BasalProbes: x must be finite positions [m], got {xs.tolist()!r}")
         self.cells = np.clip(np.floor((xs - grid.x0) / grid.dx), 0, grid.nx - 1).astype(int)
         self.x = np.asarray(grid.xc[self.cells], dtype=float)
         """x of the cell centre of each probe [m]."""
+        self.schedule = None if schedule is None else check_schedule(schedule, "BasalProbes")
+        self.t: list[float] = []
+        self.p_f: list[np.ndarray] = []
+        self.p: list[np.ndarray] = []
+
+    def __call__(self, sim: Simulation) -> None:
+        """Record the pressures at the probes (once per time)."""
+        if self.t and sim.state.t <= self.t[-1]:
+            return
+        self.t.append(sim.state.t)
+        self.p_f.append(sim.state.p_f[self.cells, 0].copy())
+        self.p.append(sim.state.p[self.cells, 0].copy())
+
+    def checkpoint_payload(self, sim: Simulation) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        shape = (len(self.t), self.cells.size)
+        t_key, pf_key, p_key = self.KEYS
+        return {t_key: np.asarray(self.t, dtype=float), pf_key: np.asarray(self.p_f, dtype=float).reshape(shape),
+                p_key: np.asarray(self.p, dtype=float).reshape(shape)}, {}
+
+    def restore_checkpoint(self, arrays: Mapping[str, np.ndarray], scalars: Mapping[str, Any]) -> None:
+        t_key, pf_key, p_key = self.KEYS
+        self.t = [float(v) for v in arrays[t_key]]
+        self.p_f = [np.array(row) for row in arrays[pf_key]]
+        self.p = [np.array(row) for row in arrays[p_key]]
 
     def coords(self, length_unit: str = "m") -> dict[str, tuple[np.ndarray, dict[str, Any]]]:
         """The ``x_probe`` coordinate (none without probes)."""
