@@ -54,7 +54,6 @@ from granflow.schedules import (  # noqa: F401 - re-exported: the schedules of a
     ScheduledEntries,
     TimeInterval,
     add_entry_payloads,
-    check_schedule,
     time_schedule_keys,
 )
 from granflow.state import State
