@@ -5,8 +5,9 @@
   an import cycle, and it is allowed -- but it is still a dependency, so the layering rule below
   counts it too.
 * No upward import: the numerical core (grid, operators, solvers, physics, rheology, model, state,
-  step, simulation) imports none of cases, cli, plotting, sweep -- at module level or in a function.
-* ``granflow.config`` depends on nothing above it (not on cases, cli, plotting, sweep).
+  step, simulation, schedules) imports none of cases, cli, plotting, sweep -- at module level or in a function.
+* ``granflow.config`` depends on nothing above it (not on cases, cli, plotting, sweep), nor does
+  ``granflow.output`` (the writers and recorders a Simulation runs without the case runner).
 
 The cycle detector and the layering check are tested on synthetic graphs, so they can fail.
 """
@@ -18,7 +19,8 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "granflow"
-CORE = ("grid", "operators", "solvers", "physics", "rheology", "model", "state", "step", "simulation")
+CORE = ("grid", "operators", "solvers", "physics", "rheology", "model", "state", "step", "simulation",
+        "schedules")
 TOP = ("cases", "cli", "plotting", "sweep")
 
 
@@ -178,7 +180,8 @@ def test_no_import_cycle_at_module_level(graphs):
     assert find_cycle(top) is None
 
 
-@pytest.mark.parametrize("lower, upper", [(CORE, TOP), (("config",), TOP)], ids=["core", "config"])
+@pytest.mark.parametrize("lower, upper", [(CORE, TOP), (("config",), TOP), (("output",), TOP)],
+                         ids=["core", "config", "output"])
 def test_no_upward_import(graphs, lower, upper):
     top, deferred = graphs
     merged = {m: top[m] | deferred[m] for m in top}

@@ -8,7 +8,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
-from granflow.cases.wall_contact import WallWatch
+from granflow.output.wall_contact import WallWatch
 from granflow.cli import ExitCode, main
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -5,8 +5,17 @@
 * a step reported FAILED (NaN, Picard divergence, CFL or phi-bound violation) or leaving a
   non-finite state is rejected: the state is restored and the step retried with ``dt/2``, at most
   ``max_retries`` times, then :class:`StepFailure` is raised;
-* callbacks ``func(simulation)`` run on schedules (:class:`IterationInterval`,
-  :class:`TimeInterval`), also once at the start;
+* scheduled entries run after every accepted step and once at the start, each when its schedule
+  (:class:`IterationInterval`, :class:`TimeInterval`; module :mod:`granflow.schedules`) is due, in
+  this order: :attr:`Simulation.diagnostics` (recorders: front, rest, ...), the callbacks
+  ``func(simulation)`` (:meth:`Simulation.add_callback`), :attr:`Simulation.output_writers`
+  (e.g. :class:`granflow.output.writers.NetCDFOutputWriter`), :attr:`Simulation.checkpointers`
+  (:class:`granflow.output.writers.Checkpointer`) last, so that a checkpoint sees everything of
+  its step done. A schedule shared by several entries is asked once per step;
+* whatever ends :meth:`Simulation.run` (the stop time, a :class:`StepFailure`, an exception, a
+  stop request), every entry with a ``finalize(simulation, completed)`` method gets it, in the same
+  order: a writer then adds the final state of a completed run, a checkpointer saves the last
+  accepted state -- so a run that fails mid-way still leaves its output and a checkpoint;
 * the energy budget (:class:`granflow.diagnostics.EnergyBudget`) is updated after every accepted
   step, and wall times per phase (assembly, solve, transport, diagnostics) are accumulated;
 * running totals over the whole run (:class:`RunTotals`: clipped mass, rejected steps, phi
@@ -16,7 +25,8 @@
   restores the state of the start of that step before propagating, so the state is always that of
   an accepted step;
 * :meth:`Simulation.checkpoint_payload` / :meth:`Simulation.restore_checkpoint`: everything a
-  restart needs (state, clock, energy budget, totals, the phase of time schedules), stored exactly,
+  restart needs (state, clock, energy budget, totals, the phase of time schedules, the history of
+  the scheduled entries that keep one), stored exactly,
   so that a restarted run reproduces the uninterrupted one bit for bit
   (:mod:`granflow.output.checkpoint`).
 """
@@ -25,8 +35,8 @@ from __future__ import annotations
 import math
 import re
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, fields
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -36,6 +46,16 @@ from granflow.diagnostics import EnergyBudget
 from granflow.errors import GranflowError, GranflowInputError
 from granflow.model import Model, StepReport
 from granflow.physics.transport import stable_dt
+from granflow.schedules import (  # noqa: F401 - re-exported: the schedules of a Simulation
+    TIME_EPS,
+    Callback,
+    IterationInterval,
+    Schedule,
+    ScheduledEntries,
+    TimeInterval,
+    add_entry_payloads,
+    time_schedule_keys,
+)
 from granflow.state import State
 
 SERIAL_BLAS = "openblas"
@@ -59,8 +79,6 @@ DEFAULT_MAX_RETRIES = 6
 """Halvings of dt allowed for one step."""
 RETRY_FACTOR = 0.5
 """dt of a retried step relative to the failed one."""
-TIME_EPS = 1e-12
-"""Relative tolerance on times (stop time, output times)."""
 
 
 STATE_ARRAYS = ("phi", "vel", "p", "p_f")
@@ -150,59 +168,6 @@ class RunTotals:
         self.max_negative_Z = max(self.max_negative_Z, report.n_negative_Z)
 
 
-@dataclass
-class IterationInterval:
-    """Due every ``n`` accepted steps."""
-
-    n: int
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.n, int) and self.n >= 1):
-            raise GranflowInputError(f"IterationInterval: n must be an integer >= 1, got {self.n!r}")
-
-    def due(self, sim: Simulation) -> bool:
-        return sim.state.step % self.n == 0
-
-    def next_time(self, sim: Simulation) -> float:
-        return math.inf
-
-
-@dataclass
-class TimeInterval:
-    """Due every ``interval`` seconds of simulated time (the time step is shortened to land on
-    the output times)."""
-
-    interval: float
-    _next: float = field(default=0.0, init=False)
-
-    def __post_init__(self) -> None:
-        if not (self.interval > 0 and math.isfinite(self.interval)):
-            raise GranflowInputError(f"TimeInterval: interval must be > 0, got {self.interval!r}")
-
-    def due(self, sim: Simulation) -> bool:
-        if sim.state.t >= self._next - TIME_EPS * max(1.0, abs(self._next)):
-            until = sim.state.t + TIME_EPS * max(1.0, abs(sim.state.t))
-            behind = math.floor((until - self._next) / self.interval)
-            if behind > 1:  # far behind (a restart at a later time): jump there, do not loop
-                self._next += (behind - 1) * self.interval
-            while self._next <= until:
-                self._next += self.interval
-            return True
-        return False
-
-    def next_time(self, sim: Simulation) -> float:
-        return self._next
-
-
-@dataclass
-class Callback:
-    """``func(simulation)`` run when ``schedule.due(simulation)``."""
-
-    func: Callable[[Simulation], None]
-    schedule: IterationInterval | TimeInterval
-    name: str = ""
-
-
 class Simulation:
     """Run a :class:`Model` from ``state`` to ``stop_time``.
 
@@ -222,6 +187,13 @@ class Simulation:
     max_steps : int, optional
         Stop after this many accepted steps.
     callbacks : sequence of Callback, optional
+
+    Attributes
+    ----------
+    output_writers, diagnostics, checkpointers : ScheduledEntries
+        ``name -> entry`` (``simulation.output_writers["fields"] = NetCDFOutputWriter(...)``);
+        an entry is callable as ``entry(simulation)`` and has a ``schedule``
+        (:class:`granflow.schedules.ScheduledEntries`).
     """
 
     def __init__(self, model: Model, state: State, stop_time: float, cfl: float = DEFAULT_CFL,
@@ -242,6 +214,12 @@ class Simulation:
         self.max_retries = int(max_retries)
         self.max_steps = max_steps
         self.callbacks: list[Callback] = list(callbacks or [])
+        for cb in self.callbacks:
+            if not isinstance(cb, Callback):
+                raise GranflowInputError(f"Simulation: callbacks must be Callback objects, got {cb!r}")
+        self.diagnostics = ScheduledEntries("diagnostics")
+        self.output_writers = ScheduledEntries("output_writers")
+        self.checkpointers = ScheduledEntries("checkpointers")
         self.reports: list[StepReport] = []
         self.n_rejected = 0
         self.totals = RunTotals()
@@ -260,16 +238,40 @@ class Simulation:
         self.stop_reason = reason or "stop requested"
 
     def add_callback(self, func: Callable[[Simulation], None], schedule, name: str = "") -> None:
-        """Register ``func(simulation)`` on ``schedule``."""
+        """Register ``func(simulation)`` on ``schedule``.
+
+        Raises
+        ------
+        GranflowInputError
+            If ``func`` is not callable or ``schedule`` is not a schedule.
+        """
         self.callbacks.append(Callback(func, schedule, name))
+
+    def _entries(self) -> Iterator[tuple[str, Any]]:
+        """(name, entry) of everything on a schedule, in the order they run (module docstring)."""
+        yield from self.diagnostics.items()
+        yield from ((cb.name or str(i), cb) for i, cb in enumerate(self.callbacks))
+        yield from self.output_writers.items()
+        yield from self.checkpointers.items()
+
+    def _schedules(self) -> list[Schedule]:
+        """The distinct schedule objects of the entries."""
+        return list({id(e.schedule): e.schedule for _, e in self._entries()}.values())
+
+    def close(self) -> None:
+        """Close the output writers (their files stay readable; idempotent)."""
+        for _, writer in self.output_writers.items():
+            close = getattr(writer, "close", None)
+            if close is not None:
+                close()
 
     # --- loop ---------------------------------------------------------------------------------
     def time_step(self) -> float:
         """The next dt [s] (before any retry)."""
         dt = min(self.cfl * stable_dt(self.model.grid, self.state.vel, 1.0), self.dt_max,
                  self.stop_time - self.state.t)
-        for cb in self.callbacks:
-            t_next = cb.schedule.next_time(self)
+        for schedule in self._schedules():
+            t_next = schedule.next_time(self)
             if t_next > self.state.t * (1 + TIME_EPS) + TIME_EPS:
                 dt = min(dt, t_next - self.state.t)
         return dt
@@ -313,9 +315,28 @@ class Simulation:
         return report
 
     def _run_callbacks(self) -> None:
-        for cb in self.callbacks:
-            if cb.schedule.due(self):
-                cb.func(self)
+        due: dict[int, bool] = {}  # each schedule asked once: a TimeInterval moves on when due
+        for _, entry in list(self._entries()):
+            key = id(entry.schedule)
+            if key not in due:
+                due[key] = entry.schedule.due(self)
+            if due[key]:
+                entry(self)
+
+    def _finalize(self, completed: bool) -> Exception | None:
+        """``finalize(self, completed)`` of every entry that has one; all are called, the first
+        error is returned."""
+        first = None
+        for name, entry in list(self._entries()):
+            finalize = getattr(entry, "finalize", None)
+            if finalize is None:
+                continue
+            try:
+                finalize(self, completed)
+            except Exception as err:  # noqa: BLE001 - the other entries still save their output
+                err.add_note(f"in finalize() of {name!r}")
+                first = first or err
+        return first
 
     def done(self) -> bool:
         """True at ``stop_time`` or after ``max_steps`` steps of this Simulation object."""
@@ -330,9 +351,22 @@ class Simulation:
         direct solver keeps its own threads (``MKL_NUM_THREADS``, default all cores). The limit is
         process-wide: simulations run in threads of one process restore each other's limits
         when they end (the sweep runner uses processes).
+
+        Whatever ends the run, the entries' ``finalize(simulation, completed)`` run (module
+        docstring); an exception then propagates with a note if saving failed too.
         """
         with threadpool_limits(limits=_run_thread_limits()):
-            return self._run()
+            try:
+                self._run()
+            except BaseException as err:
+                problem = self._finalize(completed=False)
+                if problem is not None:
+                    err.add_note(f"saving the output afterwards failed too: {problem!r}")
+                raise
+            problem = self._finalize(completed=self.done() and not self.stop_requested)
+            if problem is not None:
+                raise problem
+            return self
 
     def _run(self) -> Simulation:
         if not self._started:
@@ -342,6 +376,10 @@ class Simulation:
                                   + nonfinite_message(self.state, self.model.grid),
                                   t=self.state.t, step=self.state.step)
             t0 = time.perf_counter()
+            for _, entry in list(self._entries()):
+                initialize = getattr(entry, "initialize", None)
+                if initialize is not None:
+                    initialize(self)
             self._run_callbacks()
             self.timings["diagnostics"] += time.perf_counter() - t0
         while not self.done() and not self.stop_requested:
@@ -349,16 +387,23 @@ class Simulation:
         return self
 
     # --- checkpoint / restart -----------------------------------------------------------------
-    def _schedule_keys(self) -> list[tuple[str, Callback]]:
-        return [(f"schedule.{cb.name or i}", cb) for i, cb in enumerate(self.callbacks)
-                if isinstance(cb.schedule, TimeInterval)]
+    def _schedule_keys(self) -> list[tuple[str, TimeInterval]]:
+        """:func:`granflow.schedules.time_schedule_keys` of the entries, named in the order
+        callbacks, output writers, diagnostics, checkpointers (a writer names the schedule it
+        shares with recorders)."""
+        return time_schedule_keys([*((cb.name or str(i), cb) for i, cb in enumerate(self.callbacks)),
+                                   *self.output_writers.items(), *self.diagnostics.items(),
+                                   *self.checkpointers.items()])
 
     def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """``(arrays, scalars)`` with everything a bit-identical restart needs.
 
         Arrays: ``state.<phi|vel|p|p_f>`` and the array fields of the energy budget
-        (``budget.rho_f``). Scalars: ``state.t``, ``state.step``, the other budget fields, :class:`RunTotals`, and the next due time of every
-        :class:`TimeInterval` callback (``schedule.<name>``), which decides future time steps.
+        (``budget.rho_f``). Scalars: ``state.t``, ``state.step``, the other budget fields,
+        :class:`RunTotals`, and the next due time of every :class:`TimeInterval` schedule
+        (``schedule.<name>``), which decides future time steps. Then what the scheduled entries
+        with a ``checkpoint_payload(simulation)`` method add (e.g. the front history of a
+        :class:`granflow.output.recorders.FrontRecorder`).
         Save them with :func:`granflow.output.checkpoint.save_checkpoint` (exact round trip).
         """
         st, b = self.state, self.budget
@@ -375,14 +420,16 @@ class Simulation:
             elif isinstance(value, (int, float)):
                 scalars[f"budget.{f.name}"] = value
         scalars.update({f"totals.{f.name}": getattr(self.totals, f.name) for f in fields(RunTotals)})
-        scalars.update({key: cb.schedule._next for key, cb in self._schedule_keys()})
+        scalars.update({key: schedule._next for key, schedule in self._schedule_keys()})
+        add_entry_payloads(self, self._entries(), arrays, scalars)
         return arrays, scalars
 
     def restore_checkpoint(self, arrays: Mapping[str, np.ndarray], scalars: Mapping[str, Any]) -> None:
         """Continue from a :meth:`checkpoint_payload` (as loaded from a checkpoint file).
 
-        Time schedules are matched by callback name; schedules absent from the checkpoint keep
-        their phase.
+        Time schedules are matched by name (:meth:`_schedule_keys`); schedules absent from the
+        checkpoint keep their phase. Then every scheduled entry with a
+        ``restore_checkpoint(arrays, scalars)`` method restores what it saved.
 
         Raises
         ------
@@ -419,6 +466,14 @@ class Simulation:
             setattr(b, k, v)
         self.totals = totals
         self.n_rejected = n_rejected
-        for key, cb in self._schedule_keys():
+        for key, schedule in self._schedule_keys():
             if key in scalars:
-                cb.schedule._next = float(scalars[key])
+                schedule._next = float(scalars[key])
+        for name, entry in self._entries():
+            restore = getattr(entry, "restore_checkpoint", None)
+            if restore is None:
+                continue
+            try:
+                restore(arrays, scalars)
+            except KeyError as err:
+                raise GranflowInputError(f"checkpoint: missing entry {err} (of {name!r})") from None

@@ -14,8 +14,8 @@ from granflow.registry import discover_modules
 #: The modules of this package that define no case (registry, runner, shared set-up helpers,
 #: restarts, sweeps, ...): not imported here, so ``import granflow.cases`` stays light. Every other
 #: module is a case module (adding a case is one file, see docs/cases.md).
-INFRASTRUCTURE = ("common", "headlines", "memory", "options", "output_specs", "preparation", "registry",
-                  "restart", "runner", "step_clock", "sweep_member", "wall_contact")
+INFRASTRUCTURE = ("common", "headlines", "memory", "options", "preparation", "registry",
+                  "restart", "runner", "step_clock", "sweep_member")
 
 
 def discover(paths: Iterable[str] = ()) -> list[str]:

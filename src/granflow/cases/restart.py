@@ -50,7 +50,7 @@ def check_resume_output(path: Path, nx: int, nz: int) -> tuple[np.ndarray, np.nd
     import netCDF4
 
     from granflow.output.integrity import check_complete
-    from granflow.cases.output_specs import PROBE_DIM
+    from granflow.output.fields import PROBE_DIM
 
     check_complete(path)
     try:

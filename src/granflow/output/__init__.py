@@ -1,4 +1,7 @@
-"""Output of granflow runs: CF NetCDF files, atomic JSON summaries, checkpoints, xarray accessor.
+"""Output of granflow runs: CF NetCDF files, atomic JSON summaries, checkpoints, xarray accessor,
+and the output writers, checkpointers and diagnostics recorders a
+:class:`~granflow.simulation.Simulation` runs on their schedules (:mod:`granflow.output.writers`,
+:mod:`granflow.output.recorders`, :mod:`granflow.output.fields`; docs/scripting.md).
 
 Importing this package registers the ``ds.granflow`` accessor on xarray Datasets
 (:mod:`granflow.output.accessor`).
@@ -20,10 +23,30 @@ from granflow.output.netcdf import (
     git_revision,
     ordered,
 )
+from granflow.output.fields import BasalProbes, Output, field_outputs, kinetic_energy_output
+from granflow.output.recorders import (
+    EquilibriumRangeCheck,
+    FrontRecorder,
+    RestDetector,
+    WallContactRecorder,
+    front_output,
+)
 from granflow.output.summary import atomic_write, jsonable, write_json_atomic
+from granflow.output.writers import Checkpointer, NetCDFOutputWriter
 
 __all__ = [
     "ARRAY_DIMS",
+    "BasalProbes",
+    "Checkpointer",
+    "EquilibriumRangeCheck",
+    "FrontRecorder",
+    "NetCDFOutputWriter",
+    "Output",
+    "RestDetector",
+    "WallContactRecorder",
+    "field_outputs",
+    "front_output",
+    "kinetic_energy_output",
     "FIELD_DIMS",
     "CheckpointError",
     "CheckpointManager",

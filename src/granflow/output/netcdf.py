@@ -370,6 +370,11 @@ class NetCDFWriter:
         return len(self._ds.dimensions[TIME_DIM])
 
     @property
+    def times(self) -> np.ndarray:
+        """Times of the records written so far (including those a resume copied) [s]."""
+        return np.asarray(self._ds.variables[TIME_DIM][:], dtype=float)
+
+    @property
     def closed(self) -> bool:
         return not self._ds.isopen()
 
