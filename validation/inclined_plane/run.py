@@ -36,6 +36,7 @@ from granflow.grid import Grid
 from granflow.model import Model
 from granflow.rheology import make_closure
 from granflow.simulation import Simulation, StepFailure, TimeInterval
+from granflow.verification.bagnold import BagnoldLayer, steady_inertial_number
 
 HERE = Path(__file__).resolve().parent
 FIGURE = HERE / "profiles.png"
@@ -77,9 +78,9 @@ STEADY_WINDOW = 2.0
 
 
 def inertial_number(theta_deg: float, beta: float) -> float:
-    """I with mu(I) = tan(theta)/(1 - beta)."""
+    """I with mu(I) = tan(theta)/(1 - beta) (:func:`granflow.verification.bagnold.steady_inertial_number`)."""
     mu = math.tan(math.radians(theta_deg)) / (1.0 - beta)
-    return I0 * (mu - MU1) / (MU2 - mu)
+    return steady_inertial_number(mu, MU1, MU2, I0)
 
 
 def packing(theta_deg: float, beta: float) -> float:
@@ -87,12 +88,12 @@ def packing(theta_deg: float, beta: float) -> float:
 
 
 def bagnold(z, c_I: float, theta_deg: float, beta: float, h: float = H0):
-    """Exact velocity [m/s] at height z (module docstring)."""
-    th = math.radians(theta_deg)
+    """Exact velocity [m/s] at height z (:class:`granflow.verification.bagnold.BagnoldLayer`,
+    the case's definition)."""
     I = inertial_number(theta_deg, beta)
-    phi = PHI_MAX - DELTA_PHI * I
-    scale = 4.0 * I / (3.0 * c_I * D) * math.sqrt((1.0 - beta) * phi * G * math.cos(th))
-    return scale * (h**1.5 - np.clip(h - np.asarray(z), 0.0, None) ** 1.5)
+    layer = BagnoldLayer(theta=math.radians(theta_deg), beta=beta, I=I, phi=PHI_MAX - DELTA_PHI * I,
+                         h=h, c_I=c_I, d=D, g=G)
+    return layer.velocity(z)
 
 
 def build(nz: int, c_I: float, theta_deg: float, beta: float, options: dict):
