@@ -41,6 +41,7 @@ from pathlib import Path
 from granflow.cases import CASES
 from granflow.config import CaseConfig
 from granflow.verification.convergence import richardson
+from granflow.verification.scripts import load_json
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results.json"
@@ -178,7 +179,7 @@ def report(results: dict) -> str:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text())["runs"] if path.exists() else {}
+    return load_json(path, {"runs": {}})["runs"]
 
 
 def main(argv=None) -> dict:

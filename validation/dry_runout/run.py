@@ -43,7 +43,6 @@ Each run is a subprocess under ``timeout``; its record goes to results.json and 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import math
 import subprocess
@@ -52,6 +51,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from granflow.verification.convergence import richardson
+from granflow.verification.scripts import load_json, load_script, save_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -64,15 +66,8 @@ LAGREE_RESULTS = ROOT / "validation" / "lagree_column" / "results.json"
 FIG_RUNOUT, FIG_CONVERGENCE = HERE / "runout.png", HERE / "convergence.png"
 
 
-def _load_lagree():
-    """validation/lagree_column/run.py as a module (its front, Richardson and fit helpers)."""
-    spec = importlib.util.spec_from_file_location("lagree_column_run", LAGREE_RUN)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-LAG = _load_lagree()
+LAG = load_script(LAGREE_RUN)
+"""validation/lagree_column/run.py as a module (its front and fit helpers)."""
 
 H0 = 0.1
 """Column height [m] (examples/column_collapse_dry.toml)."""
@@ -280,11 +275,11 @@ def load_arrays(name: str, datadir: Path = DATA) -> dict:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {"runs": {}}
+    return load_json(path, {"runs": {}})
 
 
 def save_results(results: dict, path: Path = RESULTS) -> None:
-    path.write_text(json.dumps(results, indent=1, sort_keys=True, default=float) + "\n")
+    save_json(results, path, fallback=float)
 
 
 # --- analysis ------------------------------------------------------------------------------------
@@ -297,7 +292,7 @@ def analyse(results: dict, name: str = PRIMARY_FRONT) -> dict:
         rs = sorted((r for r in runs if r["a"] == a), key=lambda r: r["level"])
         usable = [r for r in rs if r["tongue_thickness_m"] < THRESHOLD * H0]
         rel = [r[name]["relative"] for r in usable]
-        est = LAG.richardson(rel, REFINEMENT)
+        est = richardson(rel, REFINEMENT)
         table.append({"a": a, "levels": [r["level"] for r in usable], "N": [r["N"] for r in usable],
                       "cells_across_L0": [r["cells_across_L0"] for r in usable], "relative": rel,
                       "wall_s": [r["wall_s"] for r in usable], "t_rest": [r["t_rest"] for r in usable],

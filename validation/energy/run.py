@@ -55,6 +55,7 @@ from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.transport import advect
 from granflow.simulation import IterationInterval
+from granflow.verification.scripts import load_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -425,7 +426,7 @@ def figure(results: dict, path: Path = FIGURE) -> Path:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {}
+    return load_json(path, {})
 
 
 def run(quick: bool = False, cases=("dry", "fluidised"), series=("dx", "dt"), resume: bool = False,

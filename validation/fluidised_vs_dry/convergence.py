@@ -37,8 +37,6 @@ runs/validation_fluidised_convergence/ (not kept).
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import json
 import math
 import subprocess
 import sys
@@ -46,6 +44,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from granflow.verification.convergence import mesh_estimate, ratio_estimate
+from granflow.verification.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -58,15 +59,8 @@ BASE_FILES = {"fluidised": ROOT / "examples" / "column_collapse_fluidised.toml",
               "injected": ROOT / "examples" / "column_collapse_injected.toml"}
 
 
-def _load_dry():
-    """validation/dry_runout/run.py as a module (grids, fronts, extraction, Richardson)."""
-    spec = importlib.util.spec_from_file_location("dry_runout_run", DRY_RUN)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-DR = _load_dry()
+DR = load_script(DRY_RUN)
+"""validation/dry_runout/run.py as a module (grids, fronts, extraction, results files)."""
 LAG = DR.LAG
 H0 = DR.H0
 STATES = {
@@ -174,23 +168,9 @@ def run_single(a: float, state: str, level: int, max_steps: int | None = None, w
 
 
 # --- analysis ------------------------------------------------------------------------------------
-def estimate(values, ratio: float) -> dict:
-    """Mesh-converged value of coarse-to-fine ``values``: lagree_column's ``richardson`` (3-level
-    Richardson + GCI when monotone, first order otherwise), except for oscillatory convergence
-    (three values whose differences change sign), where the finest value is kept and the
-    uncertainty is half the range of the three (Stern et al. 2001, J. Fluids Eng. 123:793)."""
-    f = [float(v) for v in values]
-    if len(f) == 3 and (f[0] - f[1]) * (f[1] - f[2]) < 0:
-        return {"value": f[-1], "uncertainty": 0.5 * (max(f) - min(f)), "order": None,
-                "method": "oscillatory: finest, +- half range"}
-    return LAG.richardson(f, ratio)
-
-
-def ratio_estimate(fluid: dict, dry: dict) -> dict:
-    """Ratio of two extrapolated run-outs; relative uncertainties add (a bound)."""
-    r = fluid["value"] / dry["value"]
-    rel = fluid["uncertainty"] / abs(fluid["value"]) + dry["uncertainty"] / abs(dry["value"])
-    return {"value": r, "uncertainty": abs(r) * rel}
+estimate = mesh_estimate
+"""Mesh-converged value of coarse-to-fine values (:func:`granflow.verification.convergence.mesh_estimate`:
+Richardson + GCI, the finest value +- half the range for oscillatory levels)."""
 
 
 def analyse(results: dict, dry_results: dict, front: str = PRIMARY_FRONT) -> list[dict]:

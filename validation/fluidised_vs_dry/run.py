@@ -51,6 +51,7 @@ import numpy as np
 from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import load_case
+from granflow.verification.scripts import load_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -192,7 +193,7 @@ def run_one(a: float, state: str, dx: float, directory: Path | None = None) -> d
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text())["runs"] if path.exists() else {}
+    return load_json(path, {"runs": {}})["runs"]
 
 
 def save_results(runs: dict, path: Path = RESULTS) -> None:

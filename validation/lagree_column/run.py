@@ -40,7 +40,6 @@ Time:  32: ~10 s per run; 64: ~15-45 s; 128: ~1-3.5 min (2-core machine under lo
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import tempfile
 import time
@@ -53,7 +52,8 @@ from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import CaseConfig
 from granflow.output import ordered
-from granflow.verification.convergence import richardson  # noqa: F401  (dry_runout, fluidised_vs_dry use LAG.richardson)
+from granflow.verification.convergence import richardson
+from granflow.verification.scripts import load_json, save_json
 
 HERE = Path(__file__).resolve().parent
 PRE_V2_SETUP = {"d": 1.0 / 40.0}
@@ -226,11 +226,11 @@ def front_records(arrays: dict, a: float) -> dict:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {"runs": {}}
+    return load_json(path, {"runs": {}})
 
 
 def save_results(results: dict, path: Path = RESULTS) -> None:
-    path.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+    save_json(results, path)
 
 
 def run_one(a: float, model: str, n: int, box: str = "reduced", workdir: Path = WORKDIR,
