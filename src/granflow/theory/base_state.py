@@ -129,7 +129,7 @@ def base_state(closure: Closure, phi: float, p: float, I: float, p_f: float = 0.
     m = closure.material
     if not p_f > -m.p_atm:
         raise GranflowInputError(f"p_f = {p_f} Pa must exceed -p_atm = {-m.p_atm} Pa")
-    S = float(I * np.sqrt(p / m.rho_s) / (m.c_I * m.d))
+    S = float(I * m.shear_rate_scale(p))  # |S0| = I sqrt(p/rho_s)/(c_I d)
     Z = float(closure.Z(phi, I))
     kappa = float(m.permeability(phi))
     kappa_eff = {GasLaw.NONE: 0.0, GasLaw.LINEAR: m.p_atm * kappa, GasLaw.NONLINEAR: (m.p_atm + p_f) * kappa}[gas]
