@@ -48,14 +48,10 @@ import numpy as np
 from pydantic import Field
 
 from granflow.cases.common import (
-    GAS_OPTION,
-    INJECTION_OPTION,
-    NOT_YET,
     extent_problems,
     gas_problems,
     make_model,
     make_simulation,
-    model_supports,
     packing_problems,
     rectangle_fraction,
 )
@@ -182,16 +178,14 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
             if not phi_eq > 0.0:
                 key = "setup.beta" if s.beta > 0 else "gravity.slope_deg"
                 out.append((key, (f"tan(theta)/(1 - beta) = {mu:.4g} gives I_theta = "
-                                  f"{c.I0 * (mu - c.mu1) / (c.mu2 - mu):.4g} and phi_eq(I_theta) = "
+                                  f"{steady_inertial_number(mu, c.mu1, c.mu2, c.I0):.4g} and phi_eq(I_theta) = "
                                   f"{phi_eq:.4g} <= 0: no steady packing (lower it, or raise "
                                   "material.phi_max / lower material.delta_phi)")))
     elif s.start == "bagnold":
         out.append(("setup.start", (f'"bagnold" needs closure.name = "{REFERENCE_CLOSURE}" (got '
                                    f'{config.closure.name!r})')))
     if s.beta > 0:
-        if not (model_supports(GAS_OPTION) and model_supports(INJECTION_OPTION)):
-            out.append(("setup.beta", f"a fluidised chute {NOT_YET}"))
-        elif config.gas.law == "none":
+        if config.gas.law == "none":
             out.append(("setup.beta", f'beta = {s.beta} > 0 needs gas.law = "linear" or "nonlinear"'))
         if config.gas.U_inj != 0.0:
             out.append(("gas.U_inj", "the case sets the injection from setup.beta; leave gas.U_inj = 0"))
