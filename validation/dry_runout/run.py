@@ -35,6 +35,7 @@ Kerswell (2005): one exponent 0.9 +- 0.1.
 Run:   python validation/dry_runout/run.py [--aspects 0.5,1] [--levels 0,1,2] [--timeout 900]
        python validation/dry_runout/run.py --plot-only        # tables + figures from results.json, data/
        python validation/dry_runout/run.py --below-rule       # 5 runs below the tongue rule (~25 s)
+       python validation/dry_runout/run.py --quick            # smoke test: a = 1, level 0, 20 steps (~1 s)
 Time:  ~15 min for the 15 runs on the shared 2-core machine (9-116 s each; 288 s for a = 8 at 64).
 Each run is a subprocess under ``timeout``; its record goes to results.json and its reduced data
 (t, x, h(t, x), kinetic energy, cell-edge front) to data/<key>.npz; runs already there are skipped
@@ -47,6 +48,7 @@ import json
 import math
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -108,6 +110,8 @@ REACH_PHI = 1e-3
 WALL_MARGIN_CELLS = 2
 """The furthest grain must stay this many cells from the east wall / lid."""
 TIMEOUT_S = 900
+QUICK_ASPECT, QUICK_STEPS = 1.0, 20
+"""The ``--quick`` smoke run: a = 1, level 0, this many steps, temporary files."""
 SLOPE_WINDOW = (0.2, 0.8)
 """Deposit thicknesses [h_wall] over which the deposit slope is fitted."""
 PLATEAU = 0.98
@@ -267,6 +271,17 @@ def run_single(a: float, level: int, max_steps: int | None = None, workdir: Path
           f"{rec['toe']['relative']:.3f}, thr0.05 {rec['thr0.05']['relative']:.3f}, reach "
           f"{rec['max_reach_m']:.3f}/{rec['Lx']:.3f} m, top {rec['max_top_m']:.3f}/{rec['Lz']:.3f} m", flush=True)
     return rec
+
+
+def run(resolution: int = 0, quick: bool = False, a: float = QUICK_ASPECT) -> dict:
+    """Level ``resolution`` (an index of :func:`levels`) of aspect ratio ``a``: :func:`run_single`
+    in this process, to rest, recorded in results.json; ``quick``: :data:`QUICK_STEPS` steps into a
+    temporary directory (nothing saved)."""
+    if not quick:
+        return run_single(a, resolution)
+    with tempfile.TemporaryDirectory() as tmp:
+        return run_single(a, resolution, max_steps=QUICK_STEPS, workdir=Path(tmp), datadir=Path(tmp),
+                          results_path=Path(tmp) / RESULTS.name)
 
 
 def load_arrays(name: str, datadir: Path = DATA) -> dict:
@@ -488,7 +503,12 @@ def main(argv=None) -> None:
     p.add_argument("--below-rule", action="store_true",
                    help="run the BELOW_RULE coarse levels (temporary files; ~25 s), store them in results.json")
     p.add_argument("--single", nargs=2, metavar=("A", "LEVEL"), help=argparse.SUPPRESS)
+    p.add_argument("--quick", action="store_true",
+                   help=f"smoke test: a = {QUICK_ASPECT:g}, level 0, {QUICK_STEPS} steps, temporary files")
     args = p.parse_args(argv)
+    if args.quick:
+        run(0, quick=True)
+        return
     if args.single:
         run_single(float(args.single[0]), int(args.single[1]))
         return

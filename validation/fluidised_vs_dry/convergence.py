@@ -29,6 +29,7 @@ grid), and the estimate from the per-level ratios as a cross-check.
 
 Run:   python validation/fluidised_vs_dry/convergence.py [--plan main|all] [--timeout 1800]
        python validation/fluidised_vs_dry/convergence.py --plot-only
+       python validation/fluidised_vs_dry/convergence.py --quick   # smoke test: a = 1, level 0, 20 steps
 Time:  ~40 min on one core of the 2-core machine (25-310 s per run). Each run is a subprocess
 under ``timeout``; its record goes to convergence.json and its reduced arrays to
 data/<key>.npz; runs already recorded are skipped (``--force`` redoes). NetCDF output in
@@ -40,6 +41,7 @@ import argparse
 import math
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -86,6 +88,8 @@ straight line extrapolated to h = 0) is ill-conditioned and lands up to 1.5 L0 b
 grain (README)."""
 FRONTS = ("thr0.05", "toe")
 TIMEOUT_S = 1800
+QUICK_ASPECT, QUICK_STATE, QUICK_STEPS = 1.0, "b0.9_phi0.58", 20
+"""The ``--quick`` smoke run: a = 1, this state, level 0, this many steps, temporary files."""
 
 
 def key(a: float, state: str, level: int) -> str:
@@ -165,6 +169,17 @@ def run_single(a: float, state: str, level: int, max_steps: int | None = None, w
           f"thr0.05 {rec['thr0.05']['relative']:.3f}, reach {rec['max_reach_m']:.3f}/{rec['Lx']:.3f} m, "
           f"top {rec['max_top_m']:.3f}/{rec['Lz']:.3f} m", flush=True)
     return rec
+
+
+def run(resolution: int = 0, quick: bool = False, a: float = QUICK_ASPECT, state: str = QUICK_STATE) -> dict:
+    """Level ``resolution`` (an index of the dry study's levels) of ``state`` at aspect ``a``:
+    :func:`run_single` in this process, recorded in convergence.json; ``quick``:
+    :data:`QUICK_STEPS` steps into a temporary directory (nothing saved)."""
+    if not quick:
+        return run_single(a, state, resolution)
+    with tempfile.TemporaryDirectory() as tmp:
+        return run_single(a, state, resolution, max_steps=QUICK_STEPS, workdir=Path(tmp), datadir=Path(tmp),
+                          results_path=Path(tmp) / RESULTS.name)
 
 
 # --- analysis ------------------------------------------------------------------------------------
@@ -275,7 +290,12 @@ def main(argv=None) -> None:
     p.add_argument("--force", action="store_true")
     p.add_argument("--plot-only", action="store_true")
     p.add_argument("--single", nargs=3, metavar=("A", "STATE", "LEVEL"), help=argparse.SUPPRESS)
+    p.add_argument("--quick", action="store_true",
+                   help=f"smoke test: a = {QUICK_ASPECT:g}, {QUICK_STATE}, level 0, {QUICK_STEPS} steps, temporary files")
     args = p.parse_args(argv)
+    if args.quick:
+        run(0, quick=True)
+        return
     if args.single:
         run_single(float(args.single[0]), args.single[1], int(args.single[2]))
         return

@@ -289,14 +289,14 @@ def figure(rows, fluid_rows, path: Path = FIGURE) -> Path:
     return path
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="coarsest level only, short run")
     parser.add_argument("--options", action="store_true",
                         help="also measure the v1 (threshold surface) options one at a time")
     parser.add_argument("--rest", action="store_true",
                         help="only the from-rest table (issue 12 acceptance 2, ~1 min)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.rest:
         print("from rest at phi_max, default numerics (case inclined_layer, no numerics section):")
         print(rest_table([from_rest(n, th, b) for th, b in REST_CASES for n in REST_LEVELS]))

@@ -254,6 +254,16 @@ def run_one(a: float, model: str, n: int, box: str = "reduced", workdir: Path = 
     return rec
 
 
+def run(resolution: int = QUICK_LEVEL, quick: bool = False, a: float = FIELD_ASPECT,
+        model: str = MODELS[0]) -> dict:
+    """One level (:func:`run_one`, cells 5/``resolution``) of aspect ``a``, to rest; ``quick``:
+    :data:`QUICK_STEPS` steps into a temporary directory (nothing saved)."""
+    if quick:
+        with tempfile.TemporaryDirectory() as tmp:
+            return run_one(a, model, resolution, workdir=Path(tmp), datadir=Path(tmp), max_steps=QUICK_STEPS)
+    return run_one(a, model, resolution)
+
+
 def load_arrays(name: str, datadir: Path = DATA) -> dict:
     with np.load(datadir / f"{name}.npz") as f:
         return {k: f[k] for k in f.files}
@@ -529,10 +539,7 @@ def main(argv=None) -> dict:
     p.add_argument("--quick", action="store_true", help="smoke test: n = 16, 20 steps, temporary files")
     args = p.parse_args(argv)
     if args.quick:
-        with tempfile.TemporaryDirectory() as tmp:
-            rec = run_one(FIELD_ASPECT, MODELS[0], QUICK_LEVEL, workdir=Path(tmp), datadir=Path(tmp),
-                          max_steps=QUICK_STEPS)
-        return {"runs": {tag(FIELD_ASPECT, MODELS[0], QUICK_LEVEL): rec}}
+        return {"runs": {tag(FIELD_ASPECT, MODELS[0], QUICK_LEVEL): run(QUICK_LEVEL, quick=True)}}
     results = load_results()
     if not args.plot_only:
         todo = [(a, m, n, "reduced") for a in args.aspects for m in args.models for n in args.levels]

@@ -211,6 +211,20 @@ def run_extra(level: int, results: dict, models=None, t_end: float = EXTRA_TIME,
         save(results)
 
 
+def run(resolution: int, quick: bool = False, model: str | None = None) -> dict:
+    """The measures of one level: a run of lagree_column's a = 1.42 column at ``resolution`` (cells
+    5/n) to t = :data:`EXTRA_TIME` with the fields kept, in a temporary directory, analysed with
+    :func:`analyse_run`; ``quick``: lagree_column's :data:`QUICK_STEPS` steps only. Returns
+    ``{"window", "metrics"}``."""
+    L = _lagree()
+    model = model or L.MODELS[0]
+    win = window()
+    with tempfile.TemporaryDirectory() as tmp:
+        L.run_one(L.FIELD_ASPECT, model, resolution, workdir=Path(tmp), datadir=Path(tmp),
+                  max_steps=L.QUICK_STEPS if quick else None, keep_fields=True, stop_time=EXTRA_TIME)
+        return {"window": win, "metrics": analyse_run(L.tag(L.FIELD_ASPECT, model, resolution), Path(tmp), win)}
+
+
 def save(results: dict, path: Path = RESULTS) -> None:
     save_json(results, path)
 
@@ -334,12 +348,7 @@ def main(argv=None) -> dict:
     args = p.parse_args(argv)
     win = window()
     if args.quick:
-        L = _lagree()
-        with tempfile.TemporaryDirectory() as tmp:
-            L.run_one(L.FIELD_ASPECT, L.MODELS[0], L.QUICK_LEVEL, workdir=Path(tmp), datadir=Path(tmp),
-                      max_steps=L.QUICK_STEPS, keep_fields=True, stop_time=EXTRA_TIME)
-            name = L.tag(L.FIELD_ASPECT, L.MODELS[0], L.QUICK_LEVEL)
-            return {"window": win, "metrics": analyse_run(name, Path(tmp), win)}
+        return run(_lagree().QUICK_LEVEL, quick=True)
     results = load_json(RESULTS, {})
     results["window"] = win
     if args.extra:
