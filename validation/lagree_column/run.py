@@ -142,25 +142,9 @@ def linear_front(x, h, threshold: float) -> float:
 
 
 def toe_front(x, h, window=TOE_WINDOW) -> float:
-    """x where the straight line fitted (least squares) to the toe of h(x) reaches h = 0 [H0]: the
-    toe is the contiguous run of cells beyond the last cell with h > window[1] whose h >= window[0]
-    (with that last cell if the run has fewer than two); nan if h never exceeds window[1] or the
-    fitted slope is not negative."""
-    h = np.asarray(h, dtype=float)
-    above = np.flatnonzero(h > window[1])
-    if above.size == 0:
-        return float("nan")
-    sel = []
-    for i in range(int(above[-1]) + 1, h.size):
-        if h[i] < window[0]:
-            break
-        sel.append(i)
-    if len(sel) < 2:
-        sel = [int(above[-1]), *sel]
-    if len(sel) < 2:
-        return float("nan")
-    slope, icpt = np.polyfit(np.asarray(x)[sel], h[sel], 1)
-    return float(-icpt / slope) if slope < 0 else float("nan")
+    """x where the straight line fitted to the toe of h(x) reaches h = 0 [H0]:
+    :func:`granflow.diagnostics.toe_front` with the toe between :data:`TOE_WINDOW` H0."""
+    return dg.toe_front(x, h, window)
 
 
 def front_of(arrays: dict, key: str, k: int = -1) -> float:
