@@ -50,7 +50,9 @@ def rest_speed_of(ds) -> float:
         rest = cfg.get("output", {}).get("rest_speed")
         if rest is not None:
             return float(rest)
-        return 10.0 * float(cfg["numerics"]["eps"]) * float(cfg["grid"]["Lz"])
+        from granflow.cases.runner import REST_SPEED_FACTOR  # the run's default, one definition
+
+        return REST_SPEED_FACTOR * float(cfg["numerics"]["eps"]) * float(cfg["grid"]["Lz"])
     except (tomllib.TOMLDecodeError, KeyError, TypeError, ValueError):
         return 0.0
 
