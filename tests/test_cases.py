@@ -12,7 +12,6 @@ import pytest
 import xarray as xr
 
 from granflow.cases import CASES
-from granflow.cases.common import model_supports
 from granflow.cli import ExitCode, main
 from granflow.config import CaseConfig
 from granflow.grid import VelocityBC
@@ -107,18 +106,14 @@ def test_static_layer_case_keeps_rest_and_lithostatic_pressure(tmp_path, capsys)
     assert s["final_height_at_wall"] == pytest.approx(H, rel=1e-12)
 
 
-def test_fluidised_column_runs_or_is_reported_not_yet_supported(tmp_path, capsys):
-    """b0 = 0.5 with [gas]: p_f(t = 0) = b0 phi0 rho_s g (H0 - z) in the column if the Model
-    has the gas coupling; otherwise exit 2 naming gas.law (not yet supported)."""
+def test_fluidised_column_starts_at_b0_times_lithostatic(tmp_path, capsys):
+    """b0 = 0.5 with [gas]: p_f(t = 0) = b0 phi0 rho_s g (H0 - z) in the column."""
     out = tmp_path / "fl"
     argv = ["run", str(ROOT / "examples" / "column_collapse_dry.toml"), "--out", str(out), "--quiet",
             "--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "time.stop_time=0.003",
             "--set", "setup.b0=0.5", "--set", 'gas.law="linear"']
     code = main(argv)
     err = capsys.readouterr().err
-    if not model_supports("gas"):
-        assert code == ExitCode.BAD_INPUT and "gas.law" in err and "not yet supported" in err
-        return
     assert code == ExitCode.OK, err
     with xr.open_dataset(out / "output.nc") as ds:
         z = ds["z"].values

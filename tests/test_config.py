@@ -198,3 +198,31 @@ def test_docs_page_lists_every_case_and_option():
             assert f"`{key}`" in doc, key
     for code in ("| 0 |", "| 1 |", "| 2 |", "| 3 |", "| 130 |"):
         assert code in doc
+
+
+def test_option_names_come_from_the_model_enums_and_solvers_are_registered():
+    """The numerics and gas Literals are derived from the enums the Model takes (one list of names),
+    every solver a case may name other than "auto" is in the solver registry, and the defaults of
+    [time] and [numerics] are the Model's and the Simulation's."""
+    import typing
+
+    from granflow import simulation
+    from granflow.config.schema import GasSection, NumericsSection, TimeSection, enum_values
+    from granflow.gas import GasLaw
+    from granflow.model import AUTO_BANDED_DIRECT_UNKNOWNS, DEFAULT_EPS, LinearSolverChoice, Surface
+    from granflow.physics.momentum import Advection
+    from granflow.solvers import LINEAR_SOLVERS
+
+    def options(model, key):
+        return typing.get_args(model.model_fields[key].annotation)
+
+    assert options(NumericsSection, "linear_solver") == enum_values(LinearSolverChoice)
+    assert options(NumericsSection, "advection") == enum_values(Advection)
+    assert options(NumericsSection, "surface") == enum_values(Surface)
+    assert options(GasSection, "law") == enum_values(GasLaw)
+    assert set(enum_values(LinearSolverChoice)) - {LinearSolverChoice.AUTO.value} <= set(LINEAR_SOLVERS.names())
+    t = TimeSection()
+    assert (t.cfl, t.dt_max, t.max_retries) == (simulation.DEFAULT_CFL, simulation.DEFAULT_DT_MAX,
+                                                simulation.DEFAULT_MAX_RETRIES)
+    assert NumericsSection().eps == DEFAULT_EPS
+    assert f"{AUTO_BANDED_DIRECT_UNKNOWNS} unknowns" in NumericsSection.model_fields["linear_solver"].description

@@ -30,3 +30,23 @@ def test_two_levels_and_one():
     est = richardson([2.0, 2.1], 2.0)
     assert est["value"] == pytest.approx(2.2) and est["uncertainty"] == pytest.approx(0.3)
     assert richardson([5.0])["method"] == "single level"
+
+
+def test_mesh_estimate_keeps_the_finest_of_an_oscillating_sequence():
+    from granflow.verification.convergence import mesh_estimate
+
+    est = mesh_estimate([2.16, 2.23, 2.09], math.sqrt(2.0))
+    assert est["method"].startswith("oscillatory")
+    assert est["value"] == 2.09 and est["uncertainty"] == pytest.approx(0.5 * (2.23 - 2.09))
+    # monotone: the three-level Richardson estimate of a manufactured sequence, order 1.3
+    f_star, p, ratio = 1.5, 1.3, math.sqrt(2.0)
+    values = [f_star + 0.4 * ratio ** (-k * p) for k in range(3)]
+    assert mesh_estimate(values, ratio) == richardson(values, ratio)
+    assert mesh_estimate(values, ratio)["value"] == pytest.approx(f_star, rel=1e-12)
+
+
+def test_ratio_estimate_adds_relative_uncertainties():
+    from granflow.verification.convergence import ratio_estimate
+
+    r = ratio_estimate({"value": 4.0, "uncertainty": 0.4}, {"value": -2.0, "uncertainty": 0.1})
+    assert r["value"] == -2.0 and r["uncertainty"] == pytest.approx(2.0 * (0.1 + 0.05))

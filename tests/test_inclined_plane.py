@@ -76,6 +76,22 @@ def bagnold(z, h: float, c_I: float, beta: float = 0.0, theta: float = THETA):
     return scale * (h**1.5 - np.clip(h - np.asarray(z), 0.0, None) ** 1.5)
 
 
+@pytest.mark.parametrize("beta, theta_deg", [(0.0, 25.0), (0.15, 22.0)])
+def test_the_package_bagnold_layer_is_this_derivation(beta, theta_deg):
+    """granflow.verification.bagnold (used by the inclined_layer case and
+    validation/inclined_plane) against the derivation above, below and above the surface."""
+    from granflow.verification.bagnold import BagnoldLayer, steady_inertial_number
+
+    theta, h, c_I = np.radians(theta_deg), 0.012, 2.0
+    mu = np.tan(theta) / (1.0 - beta)
+    I = steady_inertial_number(mu, MU1, MU2, I0)
+    assert I == pytest.approx(inertial_number(mu), rel=1e-15)
+    layer = BagnoldLayer(theta=theta, beta=beta, I=I, phi=PHI_MAX - DELTA_PHI * I, h=h, c_I=c_I, d=D, g=G)
+    z = np.linspace(0.0, 1.5 * h, 31)
+    np.testing.assert_allclose(layer.velocity(z), bagnold(z, h, c_I, beta, theta), rtol=1e-14, atol=0.0)
+    assert layer.surface_velocity == pytest.approx(float(bagnold(h, h, c_I, beta, theta)), rel=1e-14)
+
+
 def phi_eq(beta: float = 0.0, theta: float = THETA) -> float:
     return PHI_MAX - DELTA_PHI * inertial_number(np.tan(theta) / (1.0 - beta))
 

@@ -178,7 +178,7 @@ def test_default_local_cluster(tmp_path):
 def test_docstring_examples():
     import doctest
 
-    import granflow.sweep
+    import granflow.sweep_spec
 
-    result = doctest.testmod(granflow.sweep)
+    result = doctest.testmod(granflow.sweep_spec)  # SweepSpec's examples (re-exported by granflow.sweep)
     assert result.attempted > 0 and result.failed == 0

@@ -54,6 +54,21 @@ def test_linear_front_is_exact_on_a_linear_deposit(lc):
     assert math.isnan(lc.linear_front(x, np.zeros_like(x), 0.05))
 
 
+def test_toe_front_extrapolates_the_toe_to_h_zero(lc):
+    """granflow.diagnostics.toe_front (lagree_column's toe front): a toe h = 0.4 - x/5 from 0.15
+    down to 0.05 ends where the line reaches 0, x = 2, whatever lies after the toe; no toe or a
+    rising one gives nan."""
+    from granflow import diagnostics as dg
+
+    x = (np.arange(40) + 0.5) * 0.05
+    h = np.where(x < 1.25, 0.3, np.clip(0.4 - x / 5.0, 0.0, None))
+    h[x > 1.8] = 0.01  # a thin sheet below the window, beyond the toe: not fitted
+    assert dg.toe_front(x, h, (0.05, 0.15)) == pytest.approx(2.0, abs=1e-12)
+    assert lc.toe_front(x, h) == dg.toe_front(x, h, lc.TOE_WINDOW)
+    assert math.isnan(dg.toe_front(x, np.full_like(x, 0.1), (0.05, 0.15)))
+    assert math.isnan(dg.toe_front(x, x / 10.0, (0.05, 0.15)))  # increasing: no falling toe
+
+
 def test_richardson_recovers_known_limits(lc):
     f = [2.0 + 0.5 * hh**1.5 for hh in (4.0, 2.0, 1.0)]  # limit 2, order 1.5
     r = lc.richardson(f)

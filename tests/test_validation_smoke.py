@@ -1,7 +1,15 @@
-"""Smoke runs of the validation/figure scripts at their coarsest size, so they cannot rot."""
+"""Smoke runs of the validation/figure scripts at their coarsest size, so they cannot rot.
+
+Every validation script has one shape (issue 18 item 5; granflow.verification.scripts): ``run(resolution,
+quick=False)`` and ``main(argv)`` with ``--quick``; each ``--quick`` runs here (seconds) and writes
+nothing into the repository.
+"""
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
+
+import pytest
 
 from _scripts import load_script
 
@@ -10,6 +18,39 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _load(rel: str):
     return load_script(rel)
+
+
+SCRIPTS = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "validation").glob("*/*.py"))
+"""Every validation script (validation/*/run.py, fluidised_vs_dry/convergence.py, theory/make_figures.py)."""
+QUICK_TESTED_ELSEWHERE = {"validation/basilisk_column/run.py": "test_basilisk_column_quick_and_comparison_rule",
+                          "validation/theory/make_figures.py": "test_theory_figures_quick"}
+
+
+def test_the_script_list_is_complete():
+    assert len(SCRIPTS) == 12 and "validation/fluidised_vs_dry/convergence.py" in SCRIPTS
+
+
+@pytest.mark.parametrize("rel", SCRIPTS)
+def test_every_validation_script_has_run_resolution_quick_and_main_argv(rel):
+    mod = _load(rel)
+    run = list(inspect.signature(mod.run).parameters.values())
+    assert run[1].name == "quick" and run[1].default is False
+    assert list(inspect.signature(mod.main).parameters) == ["argv"]
+    assert "--quick" in inspect.getsource(mod.main)
+
+
+def _files(folder: Path) -> dict[Path, int]:
+    return {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file() and "__pycache__" not in p.parts}
+
+
+@pytest.mark.parametrize("rel", [r for r in SCRIPTS if r not in QUICK_TESTED_ELSEWHERE])
+def test_quick_smoke_run_and_nothing_written_in_the_repository(rel, capsys):
+    folder = (ROOT / rel).parent
+    before = _files(folder)
+    returned = _load(rel).main(["--quick"])
+    printed = capsys.readouterr().out
+    assert returned or printed.strip()
+    assert _files(folder) == before
 
 
 def test_theory_figures_quick(tmp_path):

@@ -167,6 +167,50 @@ def front_from_thickness(x_edges, h, threshold: float, method: str = FRONT_EDGE)
     return float(front) if front.ndim == 0 else front
 
 
+MIN_TOE_CELLS = 2
+"""Fewest cells of a straight-line toe fit."""
+
+
+def toe_front(x, h, window: tuple[float, float]) -> float:
+    """The deposit-toe front [units of x]: where the straight line fitted (least squares) to the
+    toe of ``h(x)`` reaches h = 0 -- the second front rule, of the validation studies
+    (validation/lagree_column, dry_runout, fluidised_vs_dry; :func:`front_from_thickness` is the
+    run's). The toe is the contiguous run of columns beyond the last one with ``h > window[1]``
+    whose ``h >= window[0]`` (with that last column if the run has fewer than
+    :data:`MIN_TOE_CELLS`); nan if h never exceeds ``window[1]`` or the fitted slope is not
+    negative.
+
+    Parameters
+    ----------
+    x : array (nx,)
+        Column centres.
+    h : array (nx,)
+        Deposit thickness per column (same units as ``window``).
+    window : (float, float)
+        Thicknesses (low, high) bounding the toe.
+
+    Examples
+    --------
+    >>> round(toe_front([0.5, 1.5, 2.5, 3.5], [0.3, 0.2, 0.1, 0.0], (0.05, 0.15)), 6)
+    3.5
+    """
+    h = np.asarray(h, dtype=float)
+    above = np.flatnonzero(h > window[1])
+    if above.size == 0:
+        return float("nan")
+    sel = []
+    for i in range(int(above[-1]) + 1, h.size):
+        if h[i] < window[0]:
+            break
+        sel.append(i)
+    if len(sel) < MIN_TOE_CELLS:
+        sel = [int(above[-1]), *sel]
+    if len(sel) < MIN_TOE_CELLS:
+        return float("nan")
+    slope, icpt = np.polyfit(np.asarray(x)[sel], h[sel], 1)
+    return float(-icpt / slope) if slope < 0 else float("nan")
+
+
 def front_position(grid: Grid, phi, phi_max: float, threshold: float, method: str = FRONT_EDGE) -> float:
     """The front [m] of a state (:func:`front_from_thickness` of :func:`deposit_thickness`):
     the right edge of the furthest column where the deposit thickness > threshold [m]; ``nan``

@@ -5,6 +5,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (imported on first use: the CLI stays light)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 MIN_TICK_INTERVALS = 1
 """Fewest intervals between major ticks :func:`thin_ticks` asks of an axis."""
 TICK_STEPS = (1, 2, 2.5, 5, 10)

@@ -90,6 +90,13 @@ class Material(Params):
         """sqrt(p/rho_s)/(c_I d) [s^-1]: the |S| at which I = 1, so that I = |S| / scale."""
         return np.sqrt(np.asarray(p, dtype=float) / self.rho_s) / (self.c_I * self.d)
 
+    @property
+    def inertial_scale(self) -> float:
+        """c_I d sqrt(rho_s) [kg^1/2 m^-1/2]: I = inertial_scale |S| / sqrt(p) (paper eq. def:I times
+        c_I), the denominator of the dilatancy law's pressure term 2 B(phi) sqrt(p)/(c_I d sqrt(rho_s))
+        (:meth:`granflow.rheology.base.Closure.compaction_coefficient`)."""
+        return self.c_I * self.d * np.sqrt(self.rho_s)
+
     def permeability(self, phi):
         """Carman-Kozeny mobility kappa(phi) = d^2 (1-phi)^3 / (150 eta_f phi^2) [m^2 Pa^-1 s^-1].
 

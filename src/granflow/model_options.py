@@ -47,6 +47,9 @@ VISCOUS_ADDITION_FACTOR = 0.5
 """The closure's viscous stress eta_visc S is 2 (eta_visc/2) S in the tau = 2 eta S convention."""
 DEFAULT_PHI_TOLERANCE = 0.05
 """Relative overshoot of phi_max (before clipping) that fails a step."""
+DEFAULT_ISOCHORIC_INTERFACE = 1
+"""Default isochoric band [cells] next to the ambient (:class:`Model` ``isochoric_interface``;
+NUMERICS.md §7.1): dense cells within it follow div u = 0 instead of the dilatancy law."""
 AUTO_AMG_UNKNOWNS = 20_000
 """``linear_solver="auto"`` uses the AMG path from this many saddle-point unknowns (velocities +
 pressures) up; below it SciPy's sparse LU is faster (benchmarks/linear_solvers.py: AMG 15-28

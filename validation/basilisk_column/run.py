@@ -41,6 +41,7 @@ from pathlib import Path
 from granflow.cases import CASES
 from granflow.config import CaseConfig
 from granflow.verification.convergence import richardson
+from granflow.verification.scripts import load_json
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results.json"
@@ -118,6 +119,16 @@ def run_one(a: float, n: int, stop_time: float = TIMES[-1]) -> dict:
             "advection": sim.model.advection.value}
 
 
+QUICK_ASPECT, QUICK_N, QUICK_STOP = 1.42, 16, 0.2
+"""The ``--quick`` smoke run: a = 1.42 on 16^2 cells to t = 0.2 (nothing saved)."""
+
+
+def run(resolution: int = QUICK_N, quick: bool = False, a: float = QUICK_ASPECT) -> dict:
+    """One level (:func:`run_one`): the column of aspect ``a`` on ``resolution``^2 cells to t = 4,
+    or to :data:`QUICK_STOP` with ``quick``."""
+    return run_one(a, resolution, stop_time=QUICK_STOP if quick else TIMES[-1])
+
+
 def compare(run: dict) -> dict:
     """Relative front differences and profile differences against Basilisk at the same n."""
     ref = BASILISK.get(run["a"], {}).get(run["n"])
@@ -178,7 +189,7 @@ def report(results: dict) -> str:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text())["runs"] if path.exists() else {}
+    return load_json(path, {"runs": {}})["runs"]
 
 
 def main(argv=None) -> dict:
@@ -190,8 +201,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--quick", action="store_true", help="a = 1.42 at 16^2 to t = 0.2, nothing saved")
     args = ap.parse_args(argv)
     if args.quick:
-        r = run_one(1.42, 16, stop_time=0.2)
-        print(f"quick: a = 1.42, 16^2, t = {r['t_end']:.2f}: {r['steps']} steps, h(0) = {r['h0']:.3f}")
+        r = run(QUICK_N, quick=True)
+        print(f"quick: a = {QUICK_ASPECT}, {QUICK_N}^2, t = {r['t_end']:.2f}: {r['steps']} steps, "
+              f"h(0) = {r['h0']:.3f}")
         return {"quick": r}
     results = load_results()
     if not args.report:

@@ -35,6 +35,7 @@ Kerswell (2005): one exponent 0.9 +- 0.1.
 Run:   python validation/dry_runout/run.py [--aspects 0.5,1] [--levels 0,1,2] [--timeout 900]
        python validation/dry_runout/run.py --plot-only        # tables + figures from results.json, data/
        python validation/dry_runout/run.py --below-rule       # 5 runs below the tongue rule (~25 s)
+       python validation/dry_runout/run.py --quick            # smoke test: a = 1, level 0, 20 steps (~1 s)
 Time:  ~15 min for the 15 runs on the shared 2-core machine (9-116 s each; 288 s for a = 8 at 64).
 Each run is a subprocess under ``timeout``; its record goes to results.json and its reduced data
 (t, x, h(t, x), kinetic energy, cell-edge front) to data/<key>.npz; runs already there are skipped
@@ -43,15 +44,18 @@ Each run is a subprocess under ``timeout``; its record goes to results.json and 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import math
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from granflow.verification.convergence import richardson
+from granflow.verification.scripts import load_json, load_script, save_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -64,15 +68,8 @@ LAGREE_RESULTS = ROOT / "validation" / "lagree_column" / "results.json"
 FIG_RUNOUT, FIG_CONVERGENCE = HERE / "runout.png", HERE / "convergence.png"
 
 
-def _load_lagree():
-    """validation/lagree_column/run.py as a module (its front, Richardson and fit helpers)."""
-    spec = importlib.util.spec_from_file_location("lagree_column_run", LAGREE_RUN)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-LAG = _load_lagree()
+LAG = load_script(LAGREE_RUN)
+"""validation/lagree_column/run.py as a module (its front and fit helpers)."""
 
 H0 = 0.1
 """Column height [m] (examples/column_collapse_dry.toml)."""
@@ -113,6 +110,8 @@ REACH_PHI = 1e-3
 WALL_MARGIN_CELLS = 2
 """The furthest grain must stay this many cells from the east wall / lid."""
 TIMEOUT_S = 900
+QUICK_ASPECT, QUICK_STEPS = 1.0, 20
+"""The ``--quick`` smoke run: a = 1, level 0, this many steps, temporary files."""
 SLOPE_WINDOW = (0.2, 0.8)
 """Deposit thicknesses [h_wall] over which the deposit slope is fitted."""
 PLATEAU = 0.98
@@ -274,17 +273,28 @@ def run_single(a: float, level: int, max_steps: int | None = None, workdir: Path
     return rec
 
 
+def run(resolution: int = 0, quick: bool = False, a: float = QUICK_ASPECT) -> dict:
+    """Level ``resolution`` (an index of :func:`levels`) of aspect ratio ``a``: :func:`run_single`
+    in this process, to rest, recorded in results.json; ``quick``: :data:`QUICK_STEPS` steps into a
+    temporary directory (nothing saved)."""
+    if not quick:
+        return run_single(a, resolution)
+    with tempfile.TemporaryDirectory() as tmp:
+        return run_single(a, resolution, max_steps=QUICK_STEPS, workdir=Path(tmp), datadir=Path(tmp),
+                          results_path=Path(tmp) / RESULTS.name)
+
+
 def load_arrays(name: str, datadir: Path = DATA) -> dict:
     with np.load(datadir / f"{name}.npz") as f:
         return {k: f[k] for k in f.files}
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {"runs": {}}
+    return load_json(path, {"runs": {}})
 
 
 def save_results(results: dict, path: Path = RESULTS) -> None:
-    path.write_text(json.dumps(results, indent=1, sort_keys=True, default=float) + "\n")
+    save_json(results, path, fallback=float)
 
 
 # --- analysis ------------------------------------------------------------------------------------
@@ -297,7 +307,7 @@ def analyse(results: dict, name: str = PRIMARY_FRONT) -> dict:
         rs = sorted((r for r in runs if r["a"] == a), key=lambda r: r["level"])
         usable = [r for r in rs if r["tongue_thickness_m"] < THRESHOLD * H0]
         rel = [r[name]["relative"] for r in usable]
-        est = LAG.richardson(rel, REFINEMENT)
+        est = richardson(rel, REFINEMENT)
         table.append({"a": a, "levels": [r["level"] for r in usable], "N": [r["N"] for r in usable],
                       "cells_across_L0": [r["cells_across_L0"] for r in usable], "relative": rel,
                       "wall_s": [r["wall_s"] for r in usable], "t_rest": [r["t_rest"] for r in usable],
@@ -493,7 +503,12 @@ def main(argv=None) -> None:
     p.add_argument("--below-rule", action="store_true",
                    help="run the BELOW_RULE coarse levels (temporary files; ~25 s), store them in results.json")
     p.add_argument("--single", nargs=2, metavar=("A", "LEVEL"), help=argparse.SUPPRESS)
+    p.add_argument("--quick", action="store_true",
+                   help=f"smoke test: a = {QUICK_ASPECT:g}, level 0, {QUICK_STEPS} steps, temporary files")
     args = p.parse_args(argv)
+    if args.quick:
+        run(0, quick=True)
+        return
     if args.single:
         run_single(float(args.single[0]), int(args.single[1]))
         return

@@ -55,6 +55,7 @@ from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.transport import advect
 from granflow.simulation import IterationInterval
+from granflow.verification.scripts import load_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -436,11 +437,18 @@ def figure(results: dict, path: Path = FIGURE) -> Path:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {}
+    return load_json(path, {})
 
 
-def run(quick: bool = False, cases=("dry", "fluidised"), series=("dx", "dt"), resume: bool = False,
-        path: Path = RESULTS, verbose: bool = True) -> dict:
+def run(resolution: int = 0, quick: bool = False, case: str = "dry", scheme: str = "upwind") -> dict:
+    """Level ``resolution`` (an index of :data:`DX_LEVELS`) of the dx series (:func:`run_one`) to
+    :data:`T_END`, or to :data:`QUICK_T_END` with ``quick``; nothing saved."""
+    nx, nz, dt = DX_LEVELS[resolution]
+    return run_one(case, nx, nz, DX_LZ, dt, scheme, QUICK_T_END if quick else T_END)
+
+
+def run_study(quick: bool = False, cases=("dry", "fluidised"), series=("dx", "dt"), resume: bool = False,
+              path: Path = RESULTS, verbose: bool = True) -> dict:
     """Run the plan (skipping runs already in ``path`` with ``resume``), saving after every run."""
     results = load_results(path) if resume else {}
     for spec in plan(cases, series, quick):
@@ -485,20 +493,21 @@ def report(results: dict) -> None:
           f"{sum(r['wall_s'] for r in results.values()):.0f} s")
 
 
-def main() -> None:
+def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="20x8 and 40x16 to 0.1 s, dry, upwind")
     parser.add_argument("--case", choices=("dry", "fluidised", "all"), default="all")
     parser.add_argument("--series", choices=("dx", "dt", "all"), default="all")
     parser.add_argument("--resume", action="store_true", help="keep the runs already in results.json")
     parser.add_argument("--report", action="store_true", help="only print tables and draw the figure")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     cases = tuple(CASE_FILES) if args.case == "all" else (args.case,)
     series = ("dx", "dt") if args.series == "all" else (args.series,)
-    results = load_results() if args.report else run(args.quick, cases, series, args.resume)
+    results = load_results() if args.report else run_study(args.quick, cases, series, args.resume)
     report(results)
     if not args.quick:
         print(f"\nfigure: {figure(results)}")
+    return results
 
 
 if __name__ == "__main__":

@@ -29,6 +29,7 @@ grid), and the estimate from the per-level ratios as a cross-check.
 
 Run:   python validation/fluidised_vs_dry/convergence.py [--plan main|all] [--timeout 1800]
        python validation/fluidised_vs_dry/convergence.py --plot-only
+       python validation/fluidised_vs_dry/convergence.py --quick   # smoke test: a = 1, level 0, 20 steps
 Time:  ~40 min on one core of the 2-core machine (25-310 s per run). Each run is a subprocess
 under ``timeout``; its record goes to convergence.json and its reduced arrays to
 data/<key>.npz; runs already recorded are skipped (``--force`` redoes). NetCDF output in
@@ -37,15 +38,17 @@ runs/validation_fluidised_convergence/ (not kept).
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import json
 import math
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from granflow.verification.convergence import mesh_estimate, ratio_estimate
+from granflow.verification.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -58,15 +61,8 @@ BASE_FILES = {"fluidised": ROOT / "examples" / "column_collapse_fluidised.toml",
               "injected": ROOT / "examples" / "column_collapse_injected.toml"}
 
 
-def _load_dry():
-    """validation/dry_runout/run.py as a module (grids, fronts, extraction, Richardson)."""
-    spec = importlib.util.spec_from_file_location("dry_runout_run", DRY_RUN)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-DR = _load_dry()
+DR = load_script(DRY_RUN)
+"""validation/dry_runout/run.py as a module (grids, fronts, extraction, results files)."""
 LAG = DR.LAG
 H0 = DR.H0
 STATES = {
@@ -92,6 +88,8 @@ straight line extrapolated to h = 0) is ill-conditioned and lands up to 1.5 L0 b
 grain (README)."""
 FRONTS = ("thr0.05", "toe")
 TIMEOUT_S = 1800
+QUICK_ASPECT, QUICK_STATE, QUICK_STEPS = 1.0, "b0.9_phi0.58", 20
+"""The ``--quick`` smoke run: a = 1, this state, level 0, this many steps, temporary files."""
 
 
 def key(a: float, state: str, level: int) -> str:
@@ -173,24 +171,21 @@ def run_single(a: float, state: str, level: int, max_steps: int | None = None, w
     return rec
 
 
+def run(resolution: int = 0, quick: bool = False, a: float = QUICK_ASPECT, state: str = QUICK_STATE) -> dict:
+    """Level ``resolution`` (an index of the dry study's levels) of ``state`` at aspect ``a``:
+    :func:`run_single` in this process, recorded in convergence.json; ``quick``:
+    :data:`QUICK_STEPS` steps into a temporary directory (nothing saved)."""
+    if not quick:
+        return run_single(a, state, resolution)
+    with tempfile.TemporaryDirectory() as tmp:
+        return run_single(a, state, resolution, max_steps=QUICK_STEPS, workdir=Path(tmp), datadir=Path(tmp),
+                          results_path=Path(tmp) / RESULTS.name)
+
+
 # --- analysis ------------------------------------------------------------------------------------
-def estimate(values, ratio: float) -> dict:
-    """Mesh-converged value of coarse-to-fine ``values``: lagree_column's ``richardson`` (3-level
-    Richardson + GCI when monotone, first order otherwise), except for oscillatory convergence
-    (three values whose differences change sign), where the finest value is kept and the
-    uncertainty is half the range of the three (Stern et al. 2001, J. Fluids Eng. 123:793)."""
-    f = [float(v) for v in values]
-    if len(f) == 3 and (f[0] - f[1]) * (f[1] - f[2]) < 0:
-        return {"value": f[-1], "uncertainty": 0.5 * (max(f) - min(f)), "order": None,
-                "method": "oscillatory: finest, +- half range"}
-    return LAG.richardson(f, ratio)
-
-
-def ratio_estimate(fluid: dict, dry: dict) -> dict:
-    """Ratio of two extrapolated run-outs; relative uncertainties add (a bound)."""
-    r = fluid["value"] / dry["value"]
-    rel = fluid["uncertainty"] / abs(fluid["value"]) + dry["uncertainty"] / abs(dry["value"])
-    return {"value": r, "uncertainty": abs(r) * rel}
+estimate = mesh_estimate
+"""Mesh-converged value of coarse-to-fine values (:func:`granflow.verification.convergence.mesh_estimate`:
+Richardson + GCI, the finest value +- half the range for oscillatory levels)."""
 
 
 def analyse(results: dict, dry_results: dict, front: str = PRIMARY_FRONT) -> list[dict]:
@@ -295,7 +290,12 @@ def main(argv=None) -> None:
     p.add_argument("--force", action="store_true")
     p.add_argument("--plot-only", action="store_true")
     p.add_argument("--single", nargs=3, metavar=("A", "STATE", "LEVEL"), help=argparse.SUPPRESS)
+    p.add_argument("--quick", action="store_true",
+                   help=f"smoke test: a = {QUICK_ASPECT:g}, {QUICK_STATE}, level 0, {QUICK_STEPS} steps, temporary files")
     args = p.parse_args(argv)
+    if args.quick:
+        run(0, quick=True)
+        return
     if args.single:
         run_single(float(args.single[0]), args.single[1], int(args.single[2]))
         return

@@ -32,6 +32,7 @@ p_lith0 = phi0 rho_s g (H0 - dz/2), the initial lithostatic pressure of the bott
 column (its centre is at z = dz/2), for the fluidised states at a = 1.
 
 Run:   python validation/fluidised_vs_dry/run.py [--resume] [--only KEY ...] [--figures-only]
+       python validation/fluidised_vs_dry/run.py --quick   # smoke test: a = 1, b0 = 0.9, 20 steps (~1 s)
 Time:  ~19 min on a shared 2-core machine (1 cm runs 20-45 s each, 0.5 cm runs 1.5-3 min).
        Writes results.json, runout.png and basal_pressure.png next to this file; the run
        directories go to $TMPDIR/granflow_fluidised_vs_dry (not kept).
@@ -51,6 +52,7 @@ import numpy as np
 from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import load_case
+from granflow.verification.scripts import load_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -146,11 +148,16 @@ def overrides(a: float, state: str, dx: float) -> list[str]:
     return base + STATES[state][1]
 
 
-def run_one(a: float, state: str, dx: float, directory: Path | None = None) -> dict:
-    """One collapse; returns the numbers of results.json (module docstring)."""
+QUICK_STATE, QUICK_STEPS = "b0.9_phi0.58", 20
+"""The ``--quick`` smoke run: a = 1 at dx = 1 cm, this state, this many steps, temporary files."""
+
+
+def run_one(a: float, state: str, dx: float, directory: Path | None = None, extra=()) -> dict:
+    """One collapse; returns the numbers of results.json (module docstring). ``extra``: further
+    ``--set`` overrides (the quick run's step limit)."""
     import xarray as xr
 
-    cfg = load_case(BASE_FILES[STATES[state][0]], overrides(a, state, dx))
+    cfg = load_case(BASE_FILES[STATES[state][0]], [*overrides(a, state, dx), *extra])
     directory = directory or RUN_DIR / key(a, state, dx)
     t0 = time.perf_counter()
     result = CaseRun(cfg, directory, overwrite=True).run()
@@ -191,8 +198,18 @@ def run_one(a: float, state: str, dx: float, directory: Path | None = None) -> d
     }
 
 
+def run(resolution: float = DX_COARSE, quick: bool = False, a: float = FINE_ASPECT,
+        state: str = QUICK_STATE) -> dict:
+    """One collapse (:func:`run_one`) of ``state`` at aspect ``a`` on cells of ``resolution`` [m];
+    ``quick``: :data:`QUICK_STEPS` steps into a temporary directory (nothing saved)."""
+    if not quick:
+        return run_one(a, state, resolution)
+    with tempfile.TemporaryDirectory() as tmp:
+        return run_one(a, state, resolution, Path(tmp), extra=[f"time.max_steps={QUICK_STEPS}"])
+
+
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text())["runs"] if path.exists() else {}
+    return load_json(path, {"runs": {}})["runs"]
 
 
 def save_results(runs: dict, path: Path = RESULTS) -> None:
@@ -366,12 +383,19 @@ def figures(runs: dict) -> list[Path]:
     return [FIG_RUNOUT, FIG_PRESSURE]
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true",
+                        help=f"smoke test: a = {FINE_ASPECT:g}, {QUICK_STATE}, dx = {DX_COARSE} m, "
+                        f"{QUICK_STEPS} steps, temporary files")
     parser.add_argument("--resume", action="store_true", help="skip runs already in results.json")
     parser.add_argument("--only", nargs="*", default=None, help="run only these keys")
     parser.add_argument("--figures-only", action="store_true")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if args.quick:
+        r = run(DX_COARSE, quick=True)
+        print(f"quick: {r['status']}, {r['steps']} steps, reach {r['max_reach_m']:.3f} m")
+        return
     runs = load_results() if (args.resume or args.figures_only or args.only) else {}
     if not args.figures_only:
         for a, s, dx in plan():

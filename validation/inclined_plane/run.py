@@ -36,6 +36,7 @@ from granflow.grid import Grid
 from granflow.model import Model
 from granflow.rheology import make_closure
 from granflow.simulation import Simulation, StepFailure, TimeInterval
+from granflow.verification.bagnold import BagnoldLayer, steady_inertial_number
 
 HERE = Path(__file__).resolve().parent
 FIGURE = HERE / "profiles.png"
@@ -77,9 +78,9 @@ STEADY_WINDOW = 2.0
 
 
 def inertial_number(theta_deg: float, beta: float) -> float:
-    """I with mu(I) = tan(theta)/(1 - beta)."""
+    """I with mu(I) = tan(theta)/(1 - beta) (:func:`granflow.verification.bagnold.steady_inertial_number`)."""
     mu = math.tan(math.radians(theta_deg)) / (1.0 - beta)
-    return I0 * (mu - MU1) / (MU2 - mu)
+    return steady_inertial_number(mu, MU1, MU2, I0)
 
 
 def packing(theta_deg: float, beta: float) -> float:
@@ -87,12 +88,12 @@ def packing(theta_deg: float, beta: float) -> float:
 
 
 def bagnold(z, c_I: float, theta_deg: float, beta: float, h: float = H0):
-    """Exact velocity [m/s] at height z (module docstring)."""
-    th = math.radians(theta_deg)
+    """Exact velocity [m/s] at height z (:class:`granflow.verification.bagnold.BagnoldLayer`,
+    the case's definition)."""
     I = inertial_number(theta_deg, beta)
-    phi = PHI_MAX - DELTA_PHI * I
-    scale = 4.0 * I / (3.0 * c_I * D) * math.sqrt((1.0 - beta) * phi * G * math.cos(th))
-    return scale * (h**1.5 - np.clip(h - np.asarray(z), 0.0, None) ** 1.5)
+    layer = BagnoldLayer(theta=math.radians(theta_deg), beta=beta, I=I, phi=PHI_MAX - DELTA_PHI * I,
+                         h=h, c_I=c_I, d=D, g=G)
+    return layer.velocity(z)
 
 
 def build(nz: int, c_I: float, theta_deg: float, beta: float, options: dict):
@@ -288,14 +289,14 @@ def figure(rows, fluid_rows, path: Path = FIGURE) -> Path:
     return path
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="coarsest level only, short run")
     parser.add_argument("--options", action="store_true",
                         help="also measure the v1 (threshold surface) options one at a time")
     parser.add_argument("--rest", action="store_true",
                         help="only the from-rest table (issue 12 acceptance 2, ~1 min)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.rest:
         print("from rest at phi_max, default numerics (case inclined_layer, no numerics section):")
         print(rest_table([from_rest(n, th, b) for th, b in REST_CASES for n in REST_LEVELS]))

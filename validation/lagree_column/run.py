@@ -40,7 +40,6 @@ Time:  32: ~10 s per run; 64: ~15-45 s; 128: ~1-3.5 min (2-core machine under lo
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import tempfile
 import time
@@ -53,7 +52,8 @@ from granflow import diagnostics as dg
 from granflow.cases.runner import CaseRun
 from granflow.config import CaseConfig
 from granflow.output import ordered
-from granflow.verification.convergence import richardson  # noqa: F401  (dry_runout, fluidised_vs_dry use LAG.richardson)
+from granflow.verification.convergence import richardson
+from granflow.verification.scripts import load_json, save_json
 
 HERE = Path(__file__).resolve().parent
 PRE_V2_SETUP = {"d": 1.0 / 40.0}
@@ -142,25 +142,9 @@ def linear_front(x, h, threshold: float) -> float:
 
 
 def toe_front(x, h, window=TOE_WINDOW) -> float:
-    """x where the straight line fitted (least squares) to the toe of h(x) reaches h = 0 [H0]: the
-    toe is the contiguous run of cells beyond the last cell with h > window[1] whose h >= window[0]
-    (with that last cell if the run has fewer than two); nan if h never exceeds window[1] or the
-    fitted slope is not negative."""
-    h = np.asarray(h, dtype=float)
-    above = np.flatnonzero(h > window[1])
-    if above.size == 0:
-        return float("nan")
-    sel = []
-    for i in range(int(above[-1]) + 1, h.size):
-        if h[i] < window[0]:
-            break
-        sel.append(i)
-    if len(sel) < 2:
-        sel = [int(above[-1]), *sel]
-    if len(sel) < 2:
-        return float("nan")
-    slope, icpt = np.polyfit(np.asarray(x)[sel], h[sel], 1)
-    return float(-icpt / slope) if slope < 0 else float("nan")
+    """x where the straight line fitted to the toe of h(x) reaches h = 0 [H0]:
+    :func:`granflow.diagnostics.toe_front` with the toe between :data:`TOE_WINDOW` H0."""
+    return dg.toe_front(x, h, window)
 
 
 def front_of(arrays: dict, key: str, k: int = -1) -> float:
@@ -226,11 +210,11 @@ def front_records(arrays: dict, a: float) -> dict:
 
 
 def load_results(path: Path = RESULTS) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {"runs": {}}
+    return load_json(path, {"runs": {}})
 
 
 def save_results(results: dict, path: Path = RESULTS) -> None:
-    path.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+    save_json(results, path)
 
 
 def run_one(a: float, model: str, n: int, box: str = "reduced", workdir: Path = WORKDIR,
@@ -252,6 +236,16 @@ def run_one(a: float, model: str, n: int, box: str = "reduced", workdir: Path = 
           f"{rec['steps']}, wall {rec['wall_s']:.0f} s, x_f(0.05) {rec['thr0.05']['x_f']:.3f}, "
           f"rel {rec['thr0.05']['relative']:.3f}", flush=True)
     return rec
+
+
+def run(resolution: int = QUICK_LEVEL, quick: bool = False, a: float = FIELD_ASPECT,
+        model: str = MODELS[0]) -> dict:
+    """One level (:func:`run_one`, cells 5/``resolution``) of aspect ``a``, to rest; ``quick``:
+    :data:`QUICK_STEPS` steps into a temporary directory (nothing saved)."""
+    if quick:
+        with tempfile.TemporaryDirectory() as tmp:
+            return run_one(a, model, resolution, workdir=Path(tmp), datadir=Path(tmp), max_steps=QUICK_STEPS)
+    return run_one(a, model, resolution)
 
 
 def load_arrays(name: str, datadir: Path = DATA) -> dict:
@@ -529,10 +523,7 @@ def main(argv=None) -> dict:
     p.add_argument("--quick", action="store_true", help="smoke test: n = 16, 20 steps, temporary files")
     args = p.parse_args(argv)
     if args.quick:
-        with tempfile.TemporaryDirectory() as tmp:
-            rec = run_one(FIELD_ASPECT, MODELS[0], QUICK_LEVEL, workdir=Path(tmp), datadir=Path(tmp),
-                          max_steps=QUICK_STEPS)
-        return {"runs": {tag(FIELD_ASPECT, MODELS[0], QUICK_LEVEL): rec}}
+        return {"runs": {tag(FIELD_ASPECT, MODELS[0], QUICK_LEVEL): run(QUICK_LEVEL, quick=True)}}
     results = load_results()
     if not args.plot_only:
         todo = [(a, m, n, "reduced") for a in args.aspects for m in args.models for n in args.levels]

@@ -106,17 +106,25 @@ def figure_barker(out: Path, n: int) -> Path:
 
 
 def run(out: Path = Path("docs/figures"), quick: bool = False) -> list[Path]:
-    """Make every figure into ``out``; ``quick`` uses coarse sampling (CI smoke test)."""
+    """Make every figure into ``out``; ``quick`` uses coarse sampling (CI smoke test). The
+    documented equivalent of the validations' ``run(resolution, quick)``: figures, no levels, so
+    the first argument is where they go."""
     out.mkdir(parents=True, exist_ok=True)
     n = 12 if quick else 120
     assert set(CASES) <= set(CLOSURES.names())
     return [figure_closures(out, n), figure_maps(out, n), figure_growth(out, max(n, 24)), figure_barker(out, n)]
 
 
-if __name__ == "__main__":
+def main(argv=None) -> list[Path]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", type=Path, default=Path("docs/figures"))
     ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
-    for p in run(a.out, a.quick):
+    a = ap.parse_args(argv)
+    paths = run(a.out, a.quick)
+    for p in paths:
         print(f"wrote {p}")
+    return paths
+
+
+if __name__ == "__main__":
+    main()

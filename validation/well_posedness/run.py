@@ -38,15 +38,13 @@ Time:  seconds (analysis of saved data); ``--extra 256``: ~2 min per model (50 s
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import json
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from granflow.theory.barker import barker_window
+from granflow.verification.scripts import load_json, load_script, save_json
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -71,15 +69,8 @@ SMOOTH_RATIO = 4.0
 
 
 def _lagree():
-    """validation/lagree_column/run.py as a module (its runs, tags and data)."""
-    name = "validation_lagree_column_run"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, ROOT / "validation" / "lagree_column" / "run.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    """validation/lagree_column/run.py as a module (its runs, tags and data), loaded on first use."""
+    return load_script(ROOT / "validation" / "lagree_column" / "run.py")
 
 
 def window(mu_s: float = 0.32, delta_mu: float = 0.28, I0: float = 0.4) -> dict:
@@ -221,8 +212,22 @@ def run_extra(level: int, results: dict, models=None, t_end: float = EXTRA_TIME,
         save(results)
 
 
+def run(resolution: int, quick: bool = False, model: str | None = None) -> dict:
+    """The measures of one level: a run of lagree_column's a = 1.42 column at ``resolution`` (cells
+    5/n) to t = :data:`EXTRA_TIME` with the fields kept, in a temporary directory, analysed with
+    :func:`analyse_run`; ``quick``: lagree_column's :data:`QUICK_STEPS` steps only. Returns
+    ``{"window", "metrics"}``."""
+    L = _lagree()
+    model = model or L.MODELS[0]
+    win = window()
+    with tempfile.TemporaryDirectory() as tmp:
+        L.run_one(L.FIELD_ASPECT, model, resolution, workdir=Path(tmp), datadir=Path(tmp),
+                  max_steps=L.QUICK_STEPS if quick else None, keep_fields=True, stop_time=EXTRA_TIME)
+        return {"window": win, "metrics": analyse_run(L.tag(L.FIELD_ASPECT, model, resolution), Path(tmp), win)}
+
+
 def save(results: dict, path: Path = RESULTS) -> None:
-    path.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+    save_json(results, path)
 
 
 def _fmt(v, f: str = ".3g") -> str:
@@ -345,13 +350,8 @@ def main(argv=None) -> dict:
     args = p.parse_args(argv)
     win = window()
     if args.quick:
-        L = _lagree()
-        with tempfile.TemporaryDirectory() as tmp:
-            L.run_one(L.FIELD_ASPECT, L.MODELS[0], L.QUICK_LEVEL, workdir=Path(tmp), datadir=Path(tmp),
-                      max_steps=L.QUICK_STEPS, keep_fields=True, stop_time=EXTRA_TIME)
-            name = L.tag(L.FIELD_ASPECT, L.MODELS[0], L.QUICK_LEVEL)
-            return {"window": win, "metrics": analyse_run(name, Path(tmp), win)}
-    results = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+        return run(_lagree().QUICK_LEVEL, quick=True)
+    results = load_json(RESULTS, {})
     results["window"] = win
     if args.extra:
         run_extra(args.extra, results, force=args.force)

@@ -10,8 +10,7 @@ Lagree, Staron & Popinet 2011). The base is no-slip by default; tilt gravity wit
 
 Dry by default. An initially fluidised column -- pore pressure ``p_f = b0`` times the lithostatic
 pressure, typically with an expanded packing ``phi0 < phi_max`` -- needs ``[gas] law = "linear"``
-or ``"nonlinear"``; with a :class:`granflow.model.Model` that has no ``gas`` option this is
-reported, at load time, as not yet supported.
+or ``"nonlinear"`` (without one, ``setup.b0 > 0`` is refused at load time).
 
 Prepared like the experiments (``setup.preparation = "injection"``; Roche et al. 2002, Roche
 2012): the column is first fluidised by gas injected through the reservoir's porous base at
@@ -27,14 +26,11 @@ from typing import Any, Literal
 from pydantic import Field
 
 from granflow.cases.common import (
-    GAS_OPTION,
-    NOT_YET,
     extent_problems,
     gas_problems,
     initial_state,
     make_model,
     make_simulation,
-    model_supports,
     packing,
     packing_problems,
     rectangle_fraction,
@@ -94,9 +90,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
     if config.grid.periodic_x:
         out.append(("grid.periodic_x", "a column collapse needs its west (symmetry) and east walls; "
                                        "set periodic_x = false"))
-    if s.b0 > 0 and not model_supports(GAS_OPTION):
-        out.append(("setup.b0", f"an initially fluidised column (b0 = {s.b0} > 0) {NOT_YET}; set b0 = 0"))
-    elif s.b0 > 0 and config.gas.law == "none":
+    if s.b0 > 0 and config.gas.law == "none":
         out.append(("setup.b0", 'an initial pore pressure needs gas.law = "linear" or "nonlinear"'))
     return out
 

@@ -1,5 +1,5 @@
 """Pieces shared by the cases: the Model and Simulation of a :class:`~granflow.config.CaseConfig`,
-pore-gas support detection, exact cell fractions of rectangles, and shared checks."""
+the pore-gas options, exact cell fractions of rectangles, and shared checks."""
 from __future__ import annotations
 
 import inspect
@@ -15,18 +15,11 @@ from granflow.simulation import Simulation
 from granflow.state import State
 
 GAS_OPTION = "gas"
-"""Keyword of :class:`granflow.model.Model` that switches the pore-gas coupling on (when it exists)."""
+"""Keyword of :class:`granflow.model.Model` that switches the pore-gas coupling on."""
 INJECTION_OPTION = "U_inj"
-"""Keyword of :class:`granflow.model.Model` for the gas injected through the base (when it exists)."""
+"""Keyword of :class:`granflow.model.Model` for the gas injected through the base."""
 OPEN_TOP_OPTION = "open_top"
-"""Keyword of :class:`granflow.model.Model` for ``p_f = 0`` on the top wall (when it exists)."""
-NOT_YET = ("needs the pore-gas model, which this granflow's Model does not support yet "
-           "(dry solver only): not yet supported")
-
-
-def model_supports(option: str) -> bool:
-    """True if :class:`granflow.model.Model` accepts the keyword ``option``."""
-    return option in inspect.signature(Model).parameters
+"""Keyword of :class:`granflow.model.Model` for ``p_f = 0`` on the top wall."""
 
 
 def make_grid(config: CaseConfig) -> Grid:
@@ -38,35 +31,24 @@ def gas_options(config: CaseConfig) -> dict[str, Any]:
     """Keywords of the pore-gas model for :class:`Model` (empty for the dry model)."""
     if config.gas.law == "none":
         return {}
-    if not model_supports(GAS_OPTION):
-        raise GranflowInputError(f"gas.law = {config.gas.law!r} {NOT_YET}")
     from granflow.physics.pore_pressure import GasLaw
 
     options: dict[str, Any] = {GAS_OPTION: GasLaw(config.gas.law)}
-    for key, option, value, default in ((INJECTION_OPTION, INJECTION_OPTION, config.gas.U_inj, 0.0),
-                                        ("open_top", OPEN_TOP_OPTION, config.gas.open_top, False)):
+    for option, value, default in ((INJECTION_OPTION, config.gas.U_inj, 0.0),
+                                   (OPEN_TOP_OPTION, config.gas.open_top, False)):
         if value != default:
-            if not model_supports(option):
-                raise GranflowInputError(f"gas.{key}: this granflow's Model has no {option!r} option "
-                                         "(not yet supported)")
             options[option] = value
     return options
 
 
 def gas_problems(config: CaseConfig) -> list[tuple[str, str]]:
-    """Load-time check of the ``[gas]`` section against what the Model supports."""
-    if config.gas.law != "none" and not model_supports(GAS_OPTION):
-        return [("gas.law", f"{config.gas.law!r} {NOT_YET}; use law = \"none\"")]
+    """Load-time check of the ``[gas]`` section: injection and an open top need a gas law."""
     out = []
     if config.gas.law == "none":
         if config.gas.U_inj > 0:
             out.append(("gas.U_inj", 'gas injection needs gas.law = "linear" or "nonlinear"'))
         if config.gas.open_top:
             out.append(("gas.open_top", 'needs gas.law = "linear" or "nonlinear"'))
-    else:
-        for key, option in (("U_inj", INJECTION_OPTION), ("open_top", OPEN_TOP_OPTION)):
-            if getattr(config.gas, key) and not model_supports(option):
-                out.append((f"gas.{key}", f"this granflow's Model has no {option!r} option (not yet supported)"))
     return out
 
 
@@ -102,12 +84,7 @@ def initial_state(model: Model, phi, b0: float = 0.0) -> State:
     pressure ``p_f = b0 p_lith`` carries that fraction of the weight (``p = p_lith - p_f``)."""
     if b0 == 0.0:
         return model.initial_state(phi)
-    p_f = b0 * model.lithostatic_pressure(phi)
-    if "p_f" in inspect.signature(model.initial_state).parameters:
-        return model.initial_state(phi, p_f=p_f)
-    state = model.initial_state(phi)  # pragma: no cover - Models without p_f in initial_state
-    state.p_f, state.p = p_f, np.maximum(state.p - p_f, 0.0)
-    return state
+    return model.initial_state(phi, p_f=b0 * model.lithostatic_pressure(phi))
 
 
 def make_simulation(config: CaseConfig, model: Model, state: State) -> Simulation:

@@ -42,13 +42,10 @@ import numpy as np
 from pydantic import Field
 
 from granflow.cases.common import (
-    GAS_OPTION,
-    NOT_YET,
     extent_problems,
     gas_problems,
     make_model,
     make_simulation,
-    model_supports,
     packing,
     packing_problems,
     rectangle_fraction,
@@ -106,8 +103,6 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
     s, g = config.setup, config.grid
     out = packing_problems(config) + gas_problems(_with_gas(config))
     out += extent_problems(config, "setup.H", s.H, "z")
-    if not model_supports(GAS_OPTION):
-        return out + [("gas.law", f"the defluidising column {NOT_YET}")]
     if gas_law(config) == "none":
         out.append(("gas.law", (f'{CASE} needs pore gas: "linear" (the series\' law, the default of '
                                'this case) or "nonlinear", not "none"')))

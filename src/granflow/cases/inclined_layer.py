@@ -23,7 +23,8 @@ the stress ratio of a steady uniform layer is ``tan(theta)`` at every depth, and
 
     u(z) = (4 I_theta / (3 c_I d)) sqrt((1 - beta) phi g cos(theta)) [h^(3/2) - (h - z)^(3/2)],
 
-with the steady thickness ``h = h0 phi0 / phi_eq(I_theta)`` (mass). Other closures run, without a
+with the steady thickness ``h = h0 phi0 / phi_eq(I_theta)`` (mass); the one definition of that
+state is :class:`granflow.verification.bagnold.BagnoldLayer` (``Bagnold`` here). Other closures run, without a
 reference (with Drucker-Prager a steady uniform flow exists only at tan(theta) = sin(delta)).
 
 Numerics. The defaults (scheme v2: indicator surface, consistent momentum transport) match
@@ -47,14 +48,10 @@ import numpy as np
 from pydantic import Field
 
 from granflow.cases.common import (
-    GAS_OPTION,
-    INJECTION_OPTION,
-    NOT_YET,
     extent_problems,
     gas_problems,
     make_model,
     make_simulation,
-    model_supports,
     packing_problems,
     rectangle_fraction,
 )
@@ -64,6 +61,8 @@ from granflow.config import CaseConfig, Section
 from granflow.grid import Grid
 from granflow.model import Model
 from granflow.simulation import Simulation, TimeInterval
+from granflow.verification.bagnold import BagnoldLayer as Bagnold
+from granflow.verification.bagnold import steady_inertial_number
 
 CASE = "inclined_layer"
 REFERENCE_CLOSURE = "mu_i"
@@ -75,9 +74,6 @@ STEADY_TOL = 1e-3
 LOWER_FRACTION = 0.75
 """phi and p_f errors are also taken over the cells below this fraction of h (the surface cells
 are looser, validation/inclined_plane/README.md)."""
-BAGNOLD_EXPONENT = 1.5
-BAGNOLD_FACTOR = 4.0 / 3.0
-"""u = (4 I/(3 c_I d)) sqrt(...) [h^1.5 - (h - z)^1.5] (module docstring)."""
 
 
 class InclinedLayerSetup(Section):
@@ -91,31 +87,6 @@ class InclinedLayerSetup(Section):
     start: Literal["rest", "bagnold"] = Field(
         "rest", description='initial velocity: "rest" or "bagnold" (the exact steady profile; '
         'closure mu_i only) [-]')
-
-
-@dataclass(frozen=True)
-class Bagnold:
-    """The exact steady state of the mu(I) layer (module docstring). Angles in rad, SI units."""
-
-    theta: float
-    beta: float
-    I: float
-    phi: float
-    h: float
-    c_I: float
-    d: float
-    g: float
-
-    def velocity(self, z) -> np.ndarray:
-        """u(z) [m s^-1]; constant (= u_s) above the surface."""
-        scale = (BAGNOLD_FACTOR * self.I / (self.c_I * self.d)
-                 * math.sqrt((1.0 - self.beta) * self.phi * self.g * math.cos(self.theta)))
-        depth = np.clip(self.h - np.asarray(z, dtype=float), 0.0, None)
-        return scale * (self.h ** BAGNOLD_EXPONENT - depth ** BAGNOLD_EXPONENT)
-
-    @property
-    def surface_velocity(self) -> float:
-        return float(self.velocity(self.h))
 
 
 def effective_friction(config: CaseConfig) -> float:
@@ -132,7 +103,7 @@ def theta_inertial_number(config: CaseConfig) -> float | None:
     mu = effective_friction(config)
     if not c.mu1 < mu < c.mu2:
         return None
-    return c.I0 * (mu - c.mu1) / (c.mu2 - mu)
+    return steady_inertial_number(mu, c.mu1, c.mu2, c.I0)
 
 
 def initial_packing(config: CaseConfig) -> float:
@@ -207,16 +178,14 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
             if not phi_eq > 0.0:
                 key = "setup.beta" if s.beta > 0 else "gravity.slope_deg"
                 out.append((key, (f"tan(theta)/(1 - beta) = {mu:.4g} gives I_theta = "
-                                  f"{c.I0 * (mu - c.mu1) / (c.mu2 - mu):.4g} and phi_eq(I_theta) = "
+                                  f"{steady_inertial_number(mu, c.mu1, c.mu2, c.I0):.4g} and phi_eq(I_theta) = "
                                   f"{phi_eq:.4g} <= 0: no steady packing (lower it, or raise "
                                   "material.phi_max / lower material.delta_phi)")))
     elif s.start == "bagnold":
         out.append(("setup.start", (f'"bagnold" needs closure.name = "{REFERENCE_CLOSURE}" (got '
                                    f'{config.closure.name!r})')))
     if s.beta > 0:
-        if not (model_supports(GAS_OPTION) and model_supports(INJECTION_OPTION)):
-            out.append(("setup.beta", f"a fluidised chute {NOT_YET}"))
-        elif config.gas.law == "none":
+        if config.gas.law == "none":
             out.append(("setup.beta", f'beta = {s.beta} > 0 needs gas.law = "linear" or "nonlinear"'))
         if config.gas.U_inj != 0.0:
             out.append(("gas.U_inj", "the case sets the injection from setup.beta; leave gas.U_inj = 0"))

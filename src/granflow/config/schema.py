@@ -40,19 +40,27 @@ from pydantic import (
 )
 
 from granflow.config.tomlfile import KEY_SEP, dumps_toml  # noqa: F401  (KEY_SEP: re-exported)
+from granflow.gas import GasLaw
 from granflow.grid import MIN_CELLS
 from granflow.materials import Material
+from granflow.model_options import DEFAULT_ISOCHORIC_INTERFACE
 from granflow.model import (
     DEFAULT_DELTA_P,
     DEFAULT_EPS,
     AUTO_AMG_UNKNOWNS,
+    AUTO_BANDED_DIRECT_UNKNOWNS,
     DEFAULT_PHI_TOLERANCE,
     INTERFACE_RADIUS,
     AmbientParams,
+    BaseFriction,
+    LinearSolverChoice,
     PicardParams,
+    Surface,
 )
+from granflow.physics.momentum import Advection
 from granflow.physics.momentum_transport import MC_THETA, MINMOD_THETA
-from granflow.physics.transport import POSITIVITY_CFL
+from granflow.physics.transport import POSITIVITY_CFL, PhiScheme
+from granflow.simulation import DEFAULT_CFL, DEFAULT_DT_MAX, DEFAULT_MAX_RETRIES
 
 MAX_CELLS = 4_000_000
 """Largest grid ``nx * nz`` accepted (a guard against typos such as ``nx = 40000``)."""
@@ -105,7 +113,24 @@ MAX_SLOPE_DEG = 90.0
 OUTPUT_FIELDS = ("phi", "c", "u", "w", "p", "p_f", "S")
 """Cell-centred fields that can be written to the NetCDF output."""
 WallCondition = Literal["no_slip", "free_slip"]
-GasLawName = Literal["none", "linear", "nonlinear"]
+
+
+def enum_values(enum) -> tuple[str, ...]:
+    """The values of a ``str`` Enum, in declaration order: the options of a ``Literal`` derived from
+    the enum the Model takes (one list of names; pydantic's error names the key and the values)."""
+    return tuple(e.value for e in enum)
+
+
+GasLawName = Literal[enum_values(GasLaw)]  # type: ignore[valid-type]
+AdvectionName = Literal[enum_values(Advection)]  # type: ignore[valid-type]
+PhiSchemeName = Literal[enum_values(PhiScheme)]  # type: ignore[valid-type]
+SurfaceName = Literal[enum_values(Surface)]  # type: ignore[valid-type]
+BaseFrictionName = Literal[enum_values(BaseFriction)]  # type: ignore[valid-type]
+LinearSolverName = Literal[enum_values(LinearSolverChoice)]  # type: ignore[valid-type]
+DEFAULT_LINEAR_SOLVER = LinearSolverChoice.AUTO.value
+"""The case files' linear solver: ``"auto"`` (the fastest exact or iterative solver for the size).
+:class:`granflow.model.Model` keeps ``"direct"`` (SciPy's LU, the reference) as its own default for
+library use and tests; a case always passes its ``numerics.linear_solver``."""
 
 
 class Section(BaseModel):
@@ -192,9 +217,10 @@ class TimeSection(Section):
     """``[time]``."""
 
     stop_time: float = Field(0.5, gt=0, description="final time [s]")
-    cfl: float = Field(0.3, ge=MIN_CFL, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
-    dt_max: float = Field(1.0e-3, gt=0, description="largest time step [s]")
-    max_retries: int = Field(6, ge=0, le=MAX_RETRIES, description="dt halvings allowed for one step [-]")
+    cfl: float = Field(DEFAULT_CFL, ge=MIN_CFL, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
+    dt_max: float = Field(DEFAULT_DT_MAX, gt=0, description="largest time step [s]")
+    max_retries: int = Field(DEFAULT_MAX_RETRIES, ge=0, le=MAX_RETRIES,
+                             description="dt halvings allowed for one step [-]")
     max_steps: int | None = Field(None, ge=1, le=MAX_STEPS, description="stop after this many steps in "
                                   "total, counted from t = 0, at most granflow.config.MAX_STEPS [-] "
                                   "(default: no limit)")
@@ -221,18 +247,18 @@ class NumericsSection(Section):
     eps: float = Field(DEFAULT_EPS, gt=0, description="regularisation strain rate [s^-1]")
     delta_p: float = Field(DEFAULT_DELTA_P, gt=0, description="pressure offset of the sqrt(p) "
                            "linearisation and of I at p -> 0 [Pa]")
-    advection: Literal["upwind", "muscl", "consistent"] = Field(
-        "consistent", description='momentum advection scheme: "upwind", "muscl" (non-conservative '
+    advection: AdvectionName = Field(
+        Advection.CONSISTENT.value, description='momentum advection scheme: "upwind", "muscl" (non-conservative '
         '(u.grad)u) or "consistent" (conservative, with the phi transport\'s mass fluxes) [-]')
-    phi_transport: Literal["muscl", "sharp"] = Field(
-        "muscl", description='face values of the phi transport: "muscl" (MUSCL-minmod) or "sharp" '
+    phi_transport: PhiSchemeName = Field(
+        PhiScheme.MUSCL.value, description='face values of the phi transport: "muscl" (MUSCL-minmod) or "sharp" '
         '(MUSCL-THINC-BVD, the free surface kept within 1-2 cells) [-]')
-    surface: Literal["threshold", "indicator"] = Field(
-        "indicator", description='how grains are told from the ambient: "threshold" (phi < '
+    surface: SurfaceName = Field(
+        Surface.INDICATOR.value, description='how grains are told from the ambient: "threshold" (phi < '
         'ambient.phi_c is ambient) or "indicator" (a transported material fraction c; the closure '
         'at the packing phi/c; interface_packing, isochoric_interface, phi_transport and phi_c '
         'unused) [-]')
-    base_friction: Literal["centre", "wall"] | None = Field(
+    base_friction: BaseFrictionName | None = Field(
         None, description='pressure of the friction on a no-slip base: "wall" (the bottom cells\' '
         'viscosity at the pressure extrapolated to the wall: the basal yield stress is Z p_wall) or '
         '"centre" (at their centre pressure, half a cell of weight short); default: "wall" with '
@@ -247,16 +273,17 @@ class NumericsSection(Section):
         None, gt=0, description="faces slower than this keep (a blend towards) the centred gravity "
         "weight (default: |g| dt with surface = \"indicator\", eps Lz with \"threshold\") [m s^-1]")
     isochoric_interface: int = Field(
-        1, ge=0, le=INTERFACE_RADIUS, description="dense cells within this many cells of the "
+        DEFAULT_ISOCHORIC_INTERFACE, ge=0, le=INTERFACE_RADIUS, description="dense cells within this many cells of the "
         "ambient are isochoric (div u = 0, or free with p = 0) instead of following the "
         "closure's dilatancy law; 0 = off [cells]")
     phi_tolerance: float = Field(DEFAULT_PHI_TOLERANCE, gt=0, description="relative overshoot of "
                                  "phi_max (before clipping) that fails a step [-]")
-    linear_solver: Literal["auto", "direct", "pardiso", "amg"] = Field(
-        "auto", description='linear solver of each Picard sweep: "direct" (SciPy sparse LU), "pardiso" '
-        '(MKL sparse LU, needs granflow[fast]), "amg" (FGMRES + block AMG, ~O(N)) or "auto" (pardiso '
-        'if installed, else direct with the velocity band on (below 200000 unknowns), else amg '
-        f'from {AUTO_AMG_UNKNOWNS} unknowns up and direct below) [-]')
+    linear_solver: LinearSolverName = Field(
+        DEFAULT_LINEAR_SOLVER, description='linear solver of each Picard sweep: "direct" (SciPy sparse '
+        'LU), "pardiso" (MKL sparse LU, needs granflow[fast]), "amg" (FGMRES + block AMG, ~O(N)) or '
+        '"auto" (pardiso if installed, else direct with the velocity band on (below '
+        f'{AUTO_BANDED_DIRECT_UNKNOWNS} unknowns), else amg from {AUTO_AMG_UNKNOWNS} unknowns up and '
+        'direct below; the default here, while granflow.model.Model defaults to "direct") [-]')
     picard: PicardSection = Field(default_factory=PicardSection, description="Picard loop [-]")
     ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
 

@@ -130,9 +130,10 @@ class Closure(Params):
 
     def compaction_coefficient(self, phi):
         """G(phi) = 2 B(phi) / (c_I d sqrt(rho_s)) [Pa^-1/2 s^-1], so that the pressure part of the
-        divergence law is -G sqrt(p). For Drucker-Prager G = 2 lambda sin(delta)(phi_max - phi)."""
+        divergence law is -G sqrt(p) (:attr:`granflow.materials.Material.inertial_scale`). For
+        Drucker-Prager G = 2 lambda sin(delta)(phi_max - phi)."""
         m = self.material
-        return 2.0 * self.B(phi) / (m.c_I * m.d * np.sqrt(m.rho_s))
+        return 2.0 * self.B(phi) / m.inertial_scale
 
     def div_rate(self, phi, p, S):
         """Divergence law div u = 2 |S| f(phi, p, I) in stiff-safe form [s^-1] (eq. syst4b).

@@ -345,6 +345,80 @@ def _note(cond: Condition, vals: list[np.ndarray], passed: bool) -> str | None:
     return f"{what} = 0 identically on the grid, so the strict inequality fails everywhere"
 
 
+def _sample_grid(closure, I_ratio_range, n_ratio: int, phi_values, p_values, jammed_I_range,
+                 n_jammed: int):
+    """The sample points of :func:`check`: ``(r, phis, ps, jammed_I)`` -- the ratios I/I_eq with
+    r = 1 on the grid, the packings (phi_max appended for the jammed row), the pressures [Pa] and
+    the jammed row's absolute I (None when ``jammed_I_range`` is None)."""
+    phi_max = closure.material.phi_max
+    r = _log_grid(I_ratio_range, n_ratio, "I_ratio_range")
+    if r[0] <= 1.0 <= r[-1]:  # put r = 1 (f(I_eq) = 0 is checked there) exactly on the grid
+        r = np.union1d(r[np.abs(np.log(r)) > 1e3 * AT_EQUILIBRIUM_RTOL], [1.0])
+    if phi_values is None:
+        phis = np.asarray(closure.equilibrium.phi_eq(_log_grid(DEFAULT_I_EQ_RANGE, DEFAULT_N_PHI, "I_eq")))
+    else:
+        phis = np.atleast_1d(np.asarray(phi_values, dtype=float))
+    if np.any(~np.isfinite(phis)) or np.any(phis <= 0) or np.any(phis > phi_max):
+        raise GranflowInputError(f"phi_values must lie in (0, phi_max = {phi_max}], got {phis.tolist()}")
+    ps = (_log_grid(DEFAULT_P_RANGE, DEFAULT_N_P, "p") if p_values is None
+          else np.atleast_1d(np.asarray(p_values, dtype=float)))
+    if np.any(~np.isfinite(ps)) or np.any(ps <= 0):
+        raise GranflowInputError(f"p_values must be positive pressures [Pa], got {ps.tolist()}")
+    jammed = jammed_I_range is not None
+    jammed_I = _log_grid(jammed_I_range, n_jammed, "jammed_I_range") if jammed else None
+    if jammed and not np.any(phis == phi_max):
+        phis = np.append(phis, phi_max)
+    return r, phis, ps, jammed_I
+
+
+def _failing_runs(closure, blocks: list[_Block], tol) -> dict:
+    """Condition (None: not finite) -> ``[(block, runs of failing points)]``, the runs' ends
+    refined by bisection."""
+    grouped: dict[Condition | None, list[tuple[_Block, list[_RowRun]]]] = {c: [] for c in (*_CONDS, None)}
+    all_runs: list[_RowRun] = []
+    for b in blocks:
+        for c in (*_CONDS, None):
+            mask = b.pw.fails(c) if c is not None else ~b.pw.extra["all_finite"]
+            for grp in _block_runs(b, mask, c):
+                grouped[c].append((b, grp))
+                all_runs.extend(grp)
+    _bisect(closure, all_runs, tol)
+    return grouped
+
+
+def _condition_result(c: Condition, blocks: list[_Block], grouped) -> ConditionResult:
+    """One condition's result: its worst point, the regions where it fails, counts, extras."""
+    fails_where, vals, n_pts, n_nf = [], [], 0, 0
+    worst_val, worst_pt = None, None
+    for b in blocks:
+        v, fin = b.pw.value[c], b.pw.finite[c]
+        n_pts += v.size
+        n_nf += int((~fin).sum())
+        vals.append(np.where(fin, v, np.nan))
+        idx = _worst_index(v, fin, c)
+        if idx is not None:
+            cand = float(v[idx])
+            better = worst_val is None or (cand > worst_val if c is Condition.C1 else cand < worst_val)
+            if better:
+                worst_val, worst_pt = cand, _point(b, idx[0], idx[1], value=cand)
+    covers = all(np.array_equal(b.pw.fails(c), b.pw.finite[c]) for b in blocks)
+    for b, grp in grouped:
+        fails_where.append(_region(grp, c, "grid" if b.ratio else "jammed", covers))
+    extra: dict[str, Any] = {}
+    if c is Condition.C1:
+        extra["max_abs_residual"] = max(
+            (float(np.nanmax(np.where(b.pw.finite[c], b.pw.extra["abs_residual"], np.nan)))
+             for b in blocks if b.pw.finite[c].any()), default=None)
+    if c is Condition.EQUILIBRIUM:
+        at_eq = [np.abs(b.pw.extra["f"][(b.I == b.I_eq[:, None]) & b.pw.finite[c]]) for b in blocks if b.ratio]
+        extra["max_abs_f_at_eq"] = max((float(x.max()) for x in at_eq if x.size), default=None)
+    passed = not fails_where
+    return ConditionResult(
+        condition=c, passed=passed, worst_value=_num(worst_val), worst_point=worst_pt,
+        fails_where=fails_where, n_points=n_pts, n_not_finite=n_nf, extra=extra, note=_note(c, vals, passed),
+    )
+
+
 def check(
     closure: Closure,
     *,
@@ -394,70 +468,13 @@ def check(
     ['C2_strict']
     """
     tol = tolerances or Tolerances()
-    phi_max = closure.material.phi_max
-    r = _log_grid(I_ratio_range, n_ratio, "I_ratio_range")
-    if r[0] <= 1.0 <= r[-1]:  # put r = 1 (f(I_eq) = 0 is checked there) exactly on the grid
-        r = np.union1d(r[np.abs(np.log(r)) > 1e3 * AT_EQUILIBRIUM_RTOL], [1.0])
-    if phi_values is None:
-        phis = np.asarray(closure.equilibrium.phi_eq(_log_grid(DEFAULT_I_EQ_RANGE, DEFAULT_N_PHI, "I_eq")))
-    else:
-        phis = np.atleast_1d(np.asarray(phi_values, dtype=float))
-    if np.any(~np.isfinite(phis)) or np.any(phis <= 0) or np.any(phis > phi_max):
-        raise GranflowInputError(f"phi_values must lie in (0, phi_max = {phi_max}], got {phis.tolist()}")
-    ps = (_log_grid(DEFAULT_P_RANGE, DEFAULT_N_P, "p") if p_values is None
-          else np.atleast_1d(np.asarray(p_values, dtype=float)))
-    if np.any(~np.isfinite(ps)) or np.any(ps <= 0):
-        raise GranflowInputError(f"p_values must be positive pressures [Pa], got {ps.tolist()}")
-    jammed_I = _log_grid(jammed_I_range, n_jammed, "jammed_I_range") if jammed else None
-    if jammed and not np.any(phis == phi_max):
-        phis = np.append(phis, phi_max)
+    r, phis, ps, jammed_I = _sample_grid(closure, I_ratio_range, n_ratio, phi_values, p_values,
+                                         jammed_I_range if jammed else None, n_jammed)
     blocks = _build_blocks(closure, r, phis, ps, jammed_I)
     for b in blocks:
         b.pw = _evaluate(closure, b.phi[:, None], b.p[:, None], b.I, tol)
-
-    # Runs of failing points (per condition) and of non-finite points; refine, then assemble.
-    grouped: dict[Condition | None, list[tuple[_Block, list[_RowRun]]]] = {c: [] for c in (*_CONDS, None)}
-    all_runs: list[_RowRun] = []
-    for b in blocks:
-        for c in (*_CONDS, None):
-            mask = b.pw.fails(c) if c is not None else ~b.pw.extra["all_finite"]
-            for grp in _block_runs(b, mask, c):
-                grouped[c].append((b, grp))
-                all_runs.extend(grp)
-    _bisect(closure, all_runs, tol)
-
-    results: dict[str, ConditionResult] = {}
-    for c in _CONDS:
-        fails_where, vals, n_pts, n_nf = [], [], 0, 0
-        worst_val, worst_pt = None, None
-        for b in blocks:
-            v, fin = b.pw.value[c], b.pw.finite[c]
-            n_pts += v.size
-            n_nf += int((~fin).sum())
-            vals.append(np.where(fin, v, np.nan))
-            idx = _worst_index(v, fin, c)
-            if idx is not None:
-                cand = float(v[idx])
-                better = worst_val is None or (cand > worst_val if c is Condition.C1 else cand < worst_val)
-                if better:
-                    worst_val, worst_pt = cand, _point(b, idx[0], idx[1], value=cand)
-        covers = all(np.array_equal(b.pw.fails(c), b.pw.finite[c]) for b in blocks)
-        for b, grp in grouped[c]:
-            fails_where.append(_region(grp, c, "grid" if b.ratio else "jammed", covers))
-        extra: dict[str, Any] = {}
-        if c is Condition.C1:
-            extra["max_abs_residual"] = max(
-                (float(np.nanmax(np.where(b.pw.finite[c], b.pw.extra["abs_residual"], np.nan)))
-                 for b in blocks if b.pw.finite[c].any()), default=None)
-        if c is Condition.EQUILIBRIUM:
-            at_eq = [np.abs(b.pw.extra["f"][(b.I == b.I_eq[:, None]) & b.pw.finite[c]]) for b in blocks if b.ratio]
-            extra["max_abs_f_at_eq"] = max((float(x.max()) for x in at_eq if x.size), default=None)
-        passed = not fails_where
-        results[c.value] = ConditionResult(
-            condition=c, passed=passed, worst_value=_num(worst_val), worst_point=worst_pt,
-            fails_where=fails_where, n_points=n_pts, n_not_finite=n_nf, extra=extra, note=_note(c, vals, passed),
-        )
-
+    grouped = _failing_runs(closure, blocks, tol)
+    results = {c.value: _condition_result(c, blocks, grouped[c]) for c in _CONDS}
     not_finite = [_region(grp, None, "grid" if b.ratio else "jammed", False) for b, grp in grouped[None]]
     grid = {
         "I_ratio_range": [float(r[0]), float(r[-1])], "n_ratio": int(r.size),

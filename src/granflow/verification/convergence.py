@@ -42,3 +42,32 @@ def richardson(values, ratio: float = 2.0) -> dict:
                 "method": "single level"}
     e = (f[-1] - f[-2]) / (ratio**FORMAL_ORDER - 1)
     return {"value": f[-1] + e, "uncertainty": GCI_SAFETY_2 * abs(e), "order": p_obs, "method": label}
+
+
+OSCILLATORY_HALF_RANGE = 0.5
+"""Uncertainty of an oscillatory sequence as a fraction of the range of its three values (Stern et
+al. 2001, J. Fluids Eng. 123, 793: half the range)."""
+LEVELS_3 = 3
+"""Levels of the three-level estimates."""
+
+
+def mesh_estimate(values, ratio: float = 2.0) -> dict:
+    """Mesh-converged value of coarse-to-fine ``values``: :func:`richardson` (3-level Richardson +
+    GCI when monotone, first order otherwise), except for oscillatory convergence (three values
+    whose differences change sign), where the finest value is kept and the uncertainty is half the
+    range of the three (Stern et al. 2001, J. Fluids Eng. 123, 793). Same keys as
+    :func:`richardson`."""
+    f = [float(v) for v in values]
+    if len(f) == LEVELS_3 and (f[0] - f[1]) * (f[1] - f[2]) < 0:
+        return {"value": f[-1], "uncertainty": OSCILLATORY_HALF_RANGE * (max(f) - min(f)), "order": None,
+                "method": "oscillatory: finest, +- half range"}
+    return richardson(f, ratio)
+
+
+def ratio_estimate(numerator: dict, denominator: dict) -> dict:
+    """Ratio of two estimates (:func:`mesh_estimate` dicts); relative uncertainties add (a bound:
+    it does not assume the two errors independent)."""
+    r = numerator["value"] / denominator["value"]
+    rel = (numerator["uncertainty"] / abs(numerator["value"])
+           + denominator["uncertainty"] / abs(denominator["value"]))
+    return {"value": r, "uncertainty": abs(r) * rel}
