@@ -75,8 +75,16 @@ def test_collapse_conserves_mass_and_dissipates_energy():
     ek = dg.kinetic_energy(sim.model, sim.state)
     assert released > 0
     assert 0 < ek < released  # measured e_k/released = 0.65 at t = 0.5
-    x_f = CASES.get(CASE).diagnostics(sim, cfg)["runout"]["x_f"]
-    assert x_f >= x_f0 + sim.model.grid.dx  # a = 1.42, mu_s = 0.32 cannot stand; measured 0.75 -> 1.0
+    # a = 1.42, mu_s = 0.32 cannot stand: grains leave the initial footprint (x > x_f0) and the
+    # column sinks at the wall. Measured with the Picard cap of 10: 1.5 % of the volume beyond
+    # x_f0, h(wall) 0.953 (cap 4: 2.1 %, 0.949). The thresholded front is too coarse a measure
+    # here: the fourth column's h is 0.041 (cap 10) or 0.058 (cap 4), about the 0.05 threshold.
+    g = sim.model.grid
+    h = dg.deposit_thickness(g, sim.state.phi, 0.6)
+    beyond = float(np.sum(h[g.xc >= x_f0])) / float(np.sum(h))
+    assert beyond >= 5e-3
+    assert h[0] <= 0.97
+    assert CASES.get(CASE).diagnostics(sim, cfg)["runout"]["x_f"] >= x_f0
 
 
 @pytest.mark.parametrize("section, key", [

@@ -211,6 +211,43 @@ def toe_front(x, h, window: tuple[float, float]) -> float:
     return float(-icpt / slope) if slope < 0 else float("nan")
 
 
+def mass_quantile_front(x_edges, h, q: float) -> float:
+    """The x [units of x_edges] left of which a fraction ``q`` of the deposit lies -- the third
+    front rule, for comparing codes whose distal sheet hovers about a thickness threshold
+    (validation/basilisk_column): the smallest x with ``int_0^x h dx = q int h dx``, with ``h``
+    uniform inside each column (so linear interpolation of the cumulative volume). Unlike
+    :func:`front_from_thickness` it moves by the sheet's volume, not by whether its thickness
+    crosses a threshold. nan if the deposit is empty.
+
+    Parameters
+    ----------
+    x_edges : array (nx + 1,)
+        Increasing column edges.
+    h : array (nx,)
+        Deposit thickness per column (:func:`deposit_thickness`), >= 0.
+    q : float
+        Fraction of the deposit volume, 0 < q <= 1.
+
+    Examples
+    --------
+    >>> mass_quantile_front([0.0, 1.0, 2.0], [3.0, 1.0], 0.5)
+    0.6666666666666666
+    """
+    if not 0.0 < q <= 1.0:
+        raise ValueError(f"mass_quantile_front: q must be in (0, 1], got {q!r}")
+    edges = np.asarray(x_edges, dtype=float)
+    hv = np.asarray(h, dtype=float)
+    if edges.shape != (hv.size + 1,):
+        raise ValueError(f"x_edges: shape {edges.shape}, expected ({hv.size + 1},)")
+    cum = np.concatenate([[0.0], np.cumsum(hv * np.diff(edges))])
+    if not cum[-1] > 0.0:
+        return float("nan")
+    target = q * cum[-1]
+    i = int(np.searchsorted(cum, target, side="left"))  # cum[i-1] < target <= cum[i]
+    i = min(max(i, 1), hv.size)
+    return float(edges[i - 1] + (target - cum[i - 1]) / (cum[i] - cum[i - 1]) * (edges[i] - edges[i - 1]))
+
+
 def front_position(grid: Grid, phi, phi_max: float, threshold: float, method: str = FRONT_EDGE) -> float:
     """The front [m] of a state (:func:`front_from_thickness` of :func:`deposit_thickness`):
     the right edge of the furthest column where the deposit thickness > threshold [m]; ``nan``
