@@ -49,6 +49,7 @@ from granflow.grid import MIN_CELLS
 from granflow.model import Model
 from granflow.simulation import IterationInterval, Simulation, StepFailure
 from granflow.state import State
+from granflow.theory.fluidisation import minimum_fluidisation_velocity  # noqa: F401  (re-exported)
 
 GATE_WALL = "free_slip"
 """Velocity condition of the gate (east wall of the preparation grid) [-]: a smooth gate."""
@@ -97,21 +98,6 @@ class KeepInjection(StrEnum):
 
 
 # --- physics ---------------------------------------------------------------------------------------
-def minimum_fluidisation_velocity(material, phi: float, g_z: float) -> float:
-    """``U_mf = kappa(phi) phi rho_s |g_z|`` [m s^-1] (module docstring; paper eqs darcy, beta).
-
-    Parameters
-    ----------
-    material : Material
-        d, eta_f, rho_s.
-    phi : float
-        Packing of the bed [-].
-    g_z : float
-        Gravity normal to the base [m s^-2] (sign ignored).
-    """
-    return float(material.permeability(phi)) * phi * material.rho_s * abs(g_z)
-
-
 def gas_time(material, phi: float, height: float) -> float:
     """Slowest gas-diffusion time ``tau_1 = 4 H^2 / (pi^2 D)`` [s] of a bed of ``height`` [m],
     ``D = p_atm kappa(phi)/(1 - phi)`` (MODEL.md §6.7, §7)."""
