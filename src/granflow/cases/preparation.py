@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
@@ -49,6 +50,7 @@ from granflow.grid import MIN_CELLS
 from granflow.model import Model
 from granflow.simulation import IterationInterval, Simulation, StepFailure
 from granflow.state import State
+from granflow.theory import fluidisation as fluid
 from granflow.theory.fluidisation import minimum_fluidisation_velocity  # noqa: F401  (re-exported)
 
 GATE_WALL = "free_slip"
@@ -67,6 +69,15 @@ model's creep velocity scale :attr:`Model.gravity_blend_velocity` [-] (eps Lz by
 7.5e-7 m/s; ``numerics.gravity_blend_velocity`` changes it). A bed under U < U_mf has speeds ~1e-13 m/s; an over-fluidised one (U > U_mf,
 or the non-linear law at U_mf, whose top exceeds U_mf as the gas expands) creeps at 1e-5 to
 eps Lz and is never declared steady."""
+HEIGHT_DRIFT_TOL = 1.0e-3
+"""An expanded (over-fluidised) bed is quiet when its height drifts by less than this fraction of
+the kinematic-wave crossing time's worth: ``|dh/dt| <= HEIGHT_DRIFT_TOL c(phi0)``, with
+``c = -phi dU_mf/dphi`` the speed of the bed's continuity waves
+(:func:`granflow.theory.fluidisation.kinematic_wave_speed`, 26 mm/s for 70 um beads). Over the
+time ``H/c`` a packing perturbation takes to leave the bed, the remaining drift changes the
+height, and the mean packing, by at most ~1e-3 of their values [-]. The rise of the bed before
+the fluidisation front reaches its surface, ``U - U_mf(phi0)``, exceeds this limit by far
+(0.05 c at 1.3 U_mf) for any U above 1.01 U_mf; below that the whole expansion is < 1e-3."""
 STEADY_WINDOW_TAU = 1.0
 """Both criteria must hold continuously over this many gas times tau_1 [-]."""
 MIN_STEADY_STEPS = 3
@@ -158,8 +169,13 @@ def preparation_problems(config: CaseConfig) -> list[tuple[str, str]]:
 # --- the preparation run ---------------------------------------------------------------------------
 @dataclass
 class SteadyCriterion:
-    """Steady when ``max speed <= rest_speed`` and ``max |dp_f/dt| <= pf_rate`` at every accepted
-    step over the last ``window`` seconds (and at least :data:`MIN_STEADY_STEPS` steps).
+    """Steady when the bed is quiet and ``max |dp_f/dt| <= pf_rate`` at every accepted step over
+    the last ``window`` seconds (and at least :data:`MIN_STEADY_STEPS` steps).
+
+    Quiet: ``max speed <= rest_speed`` (a bed at rest, U <= U_mf), or, with ``drift_rate`` given,
+    the height drift ``|h(t) - h(t - window)| / window <= drift_rate`` (an over-fluidised bed:
+    frictionless, p = 0, its packing fluctuates at the grid scale at ~1e-4 m/s for ever, so
+    it is never at rest, but its height, the mass-weighted mean of its packing, stops).
 
     Attributes
     ----------
@@ -169,26 +185,37 @@ class SteadyCriterion:
         [Pa s^-1], :data:`PF_STEADY_TOL` p_lith,base / tau_1.
     window : float
         [s], :data:`STEADY_WINDOW_TAU` tau_1.
+    drift_rate : float or None
+        [m s^-1], :data:`HEIGHT_DRIFT_TOL` x the kinematic-wave speed, for U > U_mf; None: the
+        speed criterion alone.
     """
 
     rest_speed: float
     pf_rate: float
     window: float
+    drift_rate: float | None = None
     since: float | None = None
     steps: int = 0
     steady: bool = False
     last_speed: float = math.inf
     last_rate: float = math.inf
+    last_drift: float = math.inf
+    """Height drift rate over the last window [m s^-1] (inf until the run spans a window)."""
     _p_f: np.ndarray | None = field(default=None, repr=False)
     _t: float = 0.0
+    _heights: deque = field(default_factory=deque, repr=False)
 
     def __call__(self, sim: Simulation) -> None:
         """Callback run after every accepted step (and once at the start)."""
         st, model = sim.state, sim.model
+        if self.drift_rate is not None:
+            self._track_height(st.t, bed_height(model.grid, st.phi))
         if self._p_f is not None and st.t > self._t:
             self.last_rate = float(np.max(np.abs(st.p_f - self._p_f))) / (st.t - self._t)
             self.last_speed = granular_speed(model, st)
-            if self.last_speed <= self.rest_speed and self.last_rate <= self.pf_rate:
+            quiet = self.last_speed <= self.rest_speed or (
+                self.drift_rate is not None and self.last_drift <= self.drift_rate)
+            if quiet and self.last_rate <= self.pf_rate:
                 self.since = self._t if self.since is None else self.since
                 self.steps += 1
                 if st.t - self.since >= self.window and self.steps >= MIN_STEADY_STEPS:
@@ -197,6 +224,24 @@ class SteadyCriterion:
             else:
                 self.since, self.steps = None, 0
         self._p_f, self._t = st.p_f.copy(), st.t
+
+    def _track_height(self, t: float, h: float) -> None:
+        """Keep ``(t, h)`` back to the newest sample at least ``window`` old; update ``last_drift``."""
+        hs = self._heights
+        hs.append((t, h))
+        while len(hs) > 1 and t - hs[1][0] >= self.window:
+            hs.popleft()
+        t_old, h_old = hs[0]
+        if t - t_old >= self.window:
+            self.last_drift = abs(h - h_old) / (t - t_old)
+
+
+def bed_height(grid, phi) -> float:
+    """Mean over the columns of twice the height of the bed's centre of mass [m] (the height of
+    the uniform bed with the same mass and potential energy; :meth:`PreparationResult.bed_profile`)."""
+    column = phi.sum(axis=1) * grid.dz
+    centroid = (phi * grid.zc[None, :]).sum(axis=1) * grid.dz / column
+    return float((2.0 * centroid).mean())
 
 
 @dataclass(frozen=True)
@@ -221,6 +266,15 @@ class PreparationResult:
     """Largest |dp_f/dt| over the last step [Pa s^-1]."""
     rejected: int
     wall_s: float
+    height_drift: float = math.inf
+    """Height drift rate over the last steady window [m s^-1] (inf if the run is shorter)."""
+    drift_limit: float = math.inf
+    """The quiet limit of the height drift, :data:`HEIGHT_DRIFT_TOL` x c(phi0) [m s^-1]."""
+    phi_expected: float = math.nan
+    """Steady homogeneous packing of the model at U_prep
+    (:func:`granflow.theory.fluidisation.expanded_packing`) [-]."""
+    expansion_time: float = math.nan
+    """Predicted time to reach it (:func:`granflow.theory.fluidisation.expansion_time`) [s]."""
 
     def bed_profile(self) -> tuple[float, float, float]:
         """``(height, mean phi, basal p_f / lithostatic)`` of the prepared bed, column means.
@@ -246,7 +300,11 @@ class PreparationResult:
                 "prep_basal_pf_over_lithostatic": basal,
                 "prep_max_speed_m_s": self.max_speed, "prep_pf_rate_Pa_s": self.pf_rate,
                 "U_prep_m_s": self.U_prep, "U_mf_m_s": self.U_mf,
-                "U_prep_over_Umf": self.U_prep / self.U_mf}
+                "U_prep_over_Umf": self.U_prep / self.U_mf,
+                "prep_height_drift_m_s": self.height_drift, "prep_height_drift_limit_m_s": self.drift_limit,
+                "prep_phi_expected": self.phi_expected,
+                "prep_phi_error": phi_mean / self.phi_expected - 1.0,
+                "prep_expansion_time_s": self.expansion_time}
 
 
 def granular_speed(model: Model, state: State) -> float:
@@ -290,9 +348,12 @@ def prepare(config: CaseConfig) -> PreparationResult:
     state = model.initial_state(phi)
     tau_1 = gas_time(mat, phi0, s.H0)
     p_base = float(model.lithostatic_pressure(phi)[:, 0].max())
+    g_z = config.gravity_vector[1]
+    ratio = DEFAULT_U_PREP_OVER_UMF if s.U_prep_over_Umf is None else s.U_prep_over_Umf
     criterion = SteadyCriterion(rest_speed=REST_SPEED_FACTOR * model.gravity_blend_velocity,
                                 pf_rate=PF_STEADY_TOL * p_base / tau_1,
-                                window=STEADY_WINDOW_TAU * tau_1)
+                                window=STEADY_WINDOW_TAU * tau_1,
+                                drift_rate=HEIGHT_DRIFT_TOL * fluid.kinematic_wave_speed(mat, phi0, g_z))
     max_time = DEFAULT_PREP_MAX_TIME if s.prep_max_time is None else s.prep_max_time
     sim = Simulation(model, state, stop_time=max_time, cfl=t.cfl, dt_max=t.dt_max,
                      max_retries=t.max_retries)
@@ -305,7 +366,10 @@ def prepare(config: CaseConfig) -> PreparationResult:
     return PreparationResult(state=sim.state, model=model, U_prep=U_prep, U_mf=U_mf, tau_1=tau_1,
                              steady=criterion.steady, max_speed=granular_speed(model, sim.state),
                              pf_rate=criterion.last_rate, rejected=sim.n_rejected,
-                             wall_s=time.perf_counter() - t0)
+                             wall_s=time.perf_counter() - t0, height_drift=criterion.last_drift,
+                             drift_limit=criterion.drift_rate,
+                             phi_expected=fluid.expanded_packing(mat, phi0, ratio, g_z),
+                             expansion_time=fluid.expansion_time(mat, phi0, s.H0, ratio, g_z))
 
 
 def released_state(model: Model, prep: PreparationResult) -> State:
