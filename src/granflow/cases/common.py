@@ -20,6 +20,10 @@ INJECTION_OPTION = "U_inj"
 """Keyword of :class:`granflow.model.Model` for the gas injected through the base (when it exists)."""
 OPEN_TOP_OPTION = "open_top"
 """Keyword of :class:`granflow.model.Model` for ``p_f = 0`` on the top wall (when it exists)."""
+COMPRESSIBILITY_OPTION = "gas_compressibility"
+"""Keyword of :class:`granflow.model.Model` for the gas's state law (``gas.compressibility``)."""
+ISOTHERMAL = "isothermal"
+"""Default of ``gas.compressibility``: the paper's isothermal gas."""
 NOT_YET = ("needs the pore-gas model, which this granflow's Model does not support yet "
            "(dry solver only): not yet supported")
 
@@ -44,7 +48,9 @@ def gas_options(config: CaseConfig) -> dict[str, Any]:
 
     options: dict[str, Any] = {GAS_OPTION: GasLaw(config.gas.law)}
     for key, option, value, default in ((INJECTION_OPTION, INJECTION_OPTION, config.gas.U_inj, 0.0),
-                                        ("open_top", OPEN_TOP_OPTION, config.gas.open_top, False)):
+                                        ("open_top", OPEN_TOP_OPTION, config.gas.open_top, False),
+                                        ("compressibility", COMPRESSIBILITY_OPTION,
+                                         config.gas.compressibility, ISOTHERMAL)):
         if value != default:
             if not model_supports(option):
                 raise GranflowInputError(f"gas.{key}: this granflow's Model has no {option!r} option "
@@ -63,7 +69,10 @@ def gas_problems(config: CaseConfig) -> list[tuple[str, str]]:
             out.append(("gas.U_inj", 'gas injection needs gas.law = "linear" or "nonlinear"'))
         if config.gas.open_top:
             out.append(("gas.open_top", 'needs gas.law = "linear" or "nonlinear"'))
-    else:
+    if config.gas.compressibility != ISOTHERMAL and config.gas.law != "linear":
+        out.append(("gas.compressibility", (f'"{config.gas.compressibility}" needs gas.law = "linear" '
+                    f'(got "{config.gas.law}": the non-linear law is the isothermal state law itself)')))
+    if config.gas.law != "none":
         for key, option in (("U_inj", INJECTION_OPTION), ("open_top", OPEN_TOP_OPTION)):
             if getattr(config.gas, key) and not model_supports(option):
                 out.append((f"gas.{key}", f"this granflow's Model has no {option!r} option (not yet supported)"))

@@ -326,7 +326,8 @@ def preparation_config(config: CaseConfig, U_prep: float) -> CaseConfig:
     n = reservoir_cells(config)
     grid = GridSection(nx=n, nz=g.nz, Lx=n * g.Lx / g.nx, Lz=g.Lz, periodic_x=False)
     walls = WallsSection(west=w.west, east=GATE_WALL, bottom=w.bottom, top=w.top)
-    gas = GasSection(law=config.gas.law, U_inj=U_prep, open_top=config.gas.open_top)
+    gas = GasSection(law=config.gas.law, U_inj=U_prep, open_top=config.gas.open_top,
+                     compressibility=config.gas.compressibility)
     return config.model_copy(update={"grid": grid, "walls": walls, "gas": gas})
 
 

@@ -106,6 +106,7 @@ OUTPUT_FIELDS = ("phi", "c", "u", "w", "p", "p_f", "S")
 """Cell-centred fields that can be written to the NetCDF output."""
 WallCondition = Literal["no_slip", "free_slip"]
 GasLawName = Literal["none", "linear", "nonlinear"]
+GasCompressibilityName = Literal["isothermal", "adiabatic"]  # granflow.gas.GasCompressibility
 
 
 class Section(BaseModel):
@@ -268,6 +269,9 @@ class GasSection(Section):
                             'or "nonlinear" (eq. pressure-diffusion-nonlinear) [-]')
     U_inj: float = Field(0.0, ge=0, description="superficial gas velocity injected through the base [m s^-1]")
     open_top: bool = Field(False, description="p_f = 0 on the top wall (else impermeable) [-]")
+    compressibility: GasCompressibilityName = Field(
+        "isothermal", description='state law of the pore gas: "isothermal" (the paper\'s eq. syst2b) or '
+        '"adiabatic" (gamma = 1.4: pore-pressure diffusivity 1.4 times larger; needs law = "linear") [-]')
 
 
 class OutputSection(Section):
