@@ -13,10 +13,13 @@ superficial velocity (about the minimum fluidisation velocity U_mf) until the be
    the column ``[0, L0] x [0, H0]`` at ``phi0`` at rest with ``p_f = 0``, and the superficial
    velocity ``U_prep`` injected through its whole base (Neumann ``-kappa dp_f/dz = U_prep``,
    :mod:`granflow.physics.pore_pressure`);
-2. it runs until steady (:class:`SteadyCriterion`: the largest granular speed AND the largest
+2. it runs until steady (:class:`SteadyCriterion`: the largest granular speed -- or, for an
+   over-fluidised bed that never comes to rest, the drift of its height -- AND the largest
    ``|dp_f/dt|`` below stated thresholds, continuously over one gas time ``tau_1``) or until the
    maximum preparation time, whichever comes first -- never longer; whether the steady state was
-   reached is reported, not assumed (an over-fluidised bed, ``U_prep >= U_mf``, may creep for ever);
+   reached is reported, not assumed. Above U_mf the bed expands to the homogeneous packing of
+   :mod:`granflow.theory.fluidisation` in the kinematic-wave time ``t_s`` (seconds for a 10 cm
+   bed: a physical time, not a numerical creep), and may then turn unstable (bubbling);
 3. its ``phi``, ``p`` and ``p_f`` are copied into the columns ``x < L0`` of the collapse grid
    (ambient elsewhere, velocity zero) by :func:`released_state`.
 
@@ -66,9 +69,10 @@ lithostatic pressure [-]."""
 REST_SPEED_FACTOR = 1.0e-3
 """The bed is at rest when its largest granular face speed is below ``REST_SPEED_FACTOR`` times the
 model's creep velocity scale :attr:`Model.gravity_blend_velocity` [-] (eps Lz by default, then
-7.5e-7 m/s; ``numerics.gravity_blend_velocity`` changes it). A bed under U < U_mf has speeds ~1e-13 m/s; an over-fluidised one (U > U_mf,
-or the non-linear law at U_mf, whose top exceeds U_mf as the gas expands) creeps at 1e-5 to
-eps Lz and is never declared steady."""
+7.5e-7 m/s; ``numerics.gravity_blend_velocity`` changes it). A bed under U < U_mf has speeds
+~1e-13 m/s; an over-fluidised one (U > U_mf, or the non-linear law at U_mf, whose top exceeds
+U_mf as the gas expands) rises at U - U_mf(phi0) until expanded, then keeps grid-scale packing
+fluctuations at ~1e-4 m/s: it is judged on its height drift (:data:`HEIGHT_DRIFT_TOL`)."""
 HEIGHT_DRIFT_TOL = 1.0e-3
 """An expanded (over-fluidised) bed is quiet when its height drifts by less than this fraction of
 the kinematic-wave crossing time's worth: ``|dh/dt| <= HEIGHT_DRIFT_TOL c(phi0)``, with
