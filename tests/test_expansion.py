@@ -79,3 +79,12 @@ def test_steady_bed_matches_the_expansion_law_at_three_velocities(ratio):
     """2 cm bed, 20 cells over it (30 in the box): measured -0.06 %, -0.03 %, +0.002 % at 1.1, 1.3,
     1.6 U_mf (steady at 0.77, 0.77, 0.83 s; fronts 0.75, 0.72, 0.69 s); tolerance 1 %. ~3 s each."""
     check_steady_expansion(ratio, H0=0.02, nz=30, tol=1e-2)
+
+
+def test_validation_script_quick():
+    """validation/roche/run.py --quick (the small bed at 1.3 U_mf) runs and reports the table row."""
+    from _scripts import load_script
+
+    rows = load_script("validation/roche/run.py", "roche_run").main(["--quick"])
+    assert len(rows) == 1 and rows[0]["U_over_Umf"] == 1.3 and rows[0]["prep_steady"]
+    assert rows[0]["prep_phi_mean"] == pytest.approx(balance_root(1.3), rel=1e-2)

@@ -18,7 +18,7 @@ tests/test_expansion.py) and "example" (H0 = 10 cm, 1 cm cells, reservoir 10 cel
 geometry of examples/column_collapse_injected.toml), the latter run to 6 s (t_s ~ 3.5 s).
 
 Run:   python validation/roche/run.py [--quick]
-Time:  ~4 min on one core (``--quick``: the small bed at 1.3 U_mf only, ~15 s).
+Time:  ~4 min on one core (``--quick``: the small bed at 1.3 U_mf only, ~5 s).
 Output: results.json beside this script (not with --quick) and the table on stdout.
 """
 from __future__ import annotations
@@ -52,10 +52,11 @@ def config(ratio: float, H0: float, nz: int, ncol: int, dt_max: float, max_time:
         "time": {"stop_time": 0.003, "dt_max": dt_max}})
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> list[dict]:
+    """Run the table (module docstring); returns its rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small bed at 1.3 U_mf only")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     runs = [("small", 1.3)] if args.quick else [(b, r) for b in BEDS for r in RATIOS]
     rows = []
     for bed, ratio in runs:
@@ -71,6 +72,7 @@ def main() -> None:
               f"max speed {row['prep_max_speed_m_s']:.2e} m/s", flush=True)
     if not args.quick:
         (HERE / "results.json").write_text(json.dumps(rows, indent=1) + "\n")
+    return rows
 
 
 if __name__ == "__main__":
