@@ -80,14 +80,16 @@ def gas_energy_of(model, state) -> float:
     ``psi = phi / c`` (capacity ``1 - psi``, :func:`granflow.step.explicit_stage`), so ``E_1`` is
     ``sum (1 - psi) e(p_f) dV`` -- the energy of the gas identity of
     :class:`granflow.physics.coupling.GasPowers` (``p_f = 0`` outside the cells with a row;
-    ``c`` defaults to :meth:`Model.material_of` for a state without it)."""
+    ``c`` defaults to :meth:`Model.material_of` for a state without it). Divided by the gas's
+    polytropic index n (:class:`granflow.gas.GasCompressibility`; 1 isothermal)."""
     if model.gas is None:
         return 0.0
     phi = state.phi
     if getattr(model, "indicator", False):
         c = state.c if state.c is not None else model.material_of(state.phi)
         phi = packing(c, state.phi)
-    return gas_energy(model.grid, phi, state.p_f, model.material, GasEnergy.LOG)
+    return gas_energy(model.grid, phi, state.p_f, model.material, GasEnergy.LOG,
+                      polytropic=getattr(getattr(model, "gas_coupling", None), "polytropic", 1.0))
 
 
 def basal_pressure(grid: Grid, field, x: float) -> float:

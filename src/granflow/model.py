@@ -204,6 +204,8 @@ class Model(ClosureCoefficients, GravityWeights):
     open_top : bool
         ``p_f = 0`` on the top wall face (the velocity top stays closed). Default False
         (impermeable top; the ambient cells carry ``p_f = 0`` in any case). Needs ``gas``.
+    gas_compressibility : str
+        ``"isothermal"`` (default, paper eq. syst2b) or ``"adiabatic"`` (:class:`granflow.gas.GasCompressibility`).
     isochoric_interface : int
         Dense cells within this many cells of the ambient (default 1; 0 = off, the v1 scheme; at
         most :data:`INTERFACE_RADIUS`) drop the closure's dilatancy row: ``div u = 0`` while ``p > 0``,
@@ -232,7 +234,7 @@ class Model(ClosureCoefficients, GravityWeights):
                  isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
                  surface: Surface | str = Surface.INDICATOR,
                  base_friction: BaseFriction | str | None = None,
-                 momentum_theta: float = mt.MC_THETA) -> None:
+                 momentum_theta: float = mt.MC_THETA, gas_compressibility: str = "isothermal") -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -293,17 +295,17 @@ class Model(ClosureCoefficients, GravityWeights):
         self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
                               else make_linear_solver(choice.value) if choice is LinearSolverChoice.PARDISO
                               else make_linear_solver(choice.value, grid=grid))
-        self.gas_coupling = self._gas_coupling(gas, open_top, U_inj)
+        self.gas_coupling = self._gas_coupling(gas, open_top, U_inj, gas_compressibility)
         self.gas = None if self.gas_coupling is None else self.gas_coupling.gas
 
-    def _gas_coupling(self, gas, open_top: bool, U_inj) -> GasCoupling | None:
+    def _gas_coupling(self, gas, open_top: bool, U_inj, gas_compressibility) -> GasCoupling | None:
         """The pore-gas coupling of ``gas`` (None without a gas law, which allows neither an
         injection nor an open top)."""
         if gas is None or gas == GasLaw.NONE:
             if open_top or np.any(np.asarray(U_inj, dtype=float) != 0.0):
                 raise GranflowInputError("Model: U_inj and open_top need a gas law (gas=...)")
             return None
-        return GasCoupling(self.grid, self.ops, self.material, gas, open_top, U_inj)
+        return GasCoupling(self.grid, self.ops, self.material, gas, open_top, U_inj, gas_compressibility)
 
     def _linear_solver_choice(self, choice: LinearSolverChoice) -> LinearSolverChoice:
         """The solver of ``numerics.linear_solver = choice``: "direct" is SciPy's sparse LU (the

@@ -20,6 +20,10 @@ INJECTION_OPTION = "U_inj"
 """Keyword of :class:`granflow.model.Model` for the gas injected through the base."""
 OPEN_TOP_OPTION = "open_top"
 """Keyword of :class:`granflow.model.Model` for ``p_f = 0`` on the top wall."""
+COMPRESSIBILITY_OPTION = "gas_compressibility"
+"""Keyword of :class:`granflow.model.Model` for the gas's state law (``gas.compressibility``)."""
+ISOTHERMAL = "isothermal"
+"""Default of ``gas.compressibility``: the paper's isothermal gas."""
 
 
 def make_grid(config: CaseConfig) -> Grid:
@@ -35,7 +39,8 @@ def gas_options(config: CaseConfig) -> dict[str, Any]:
 
     options: dict[str, Any] = {GAS_OPTION: GasLaw(config.gas.law)}
     for option, value, default in ((INJECTION_OPTION, config.gas.U_inj, 0.0),
-                                   (OPEN_TOP_OPTION, config.gas.open_top, False)):
+                                   (OPEN_TOP_OPTION, config.gas.open_top, False),
+                                   (COMPRESSIBILITY_OPTION, config.gas.compressibility, ISOTHERMAL)):
         if value != default:
             options[option] = value
     return options
@@ -49,6 +54,9 @@ def gas_problems(config: CaseConfig) -> list[tuple[str, str]]:
             out.append(("gas.U_inj", 'gas injection needs gas.law = "linear" or "nonlinear"'))
         if config.gas.open_top:
             out.append(("gas.open_top", 'needs gas.law = "linear" or "nonlinear"'))
+    if config.gas.compressibility != ISOTHERMAL and config.gas.law != "linear":
+        out.append(("gas.compressibility", (f'"{config.gas.compressibility}" needs gas.law = "linear" '
+                    f'(got "{config.gas.law}": the non-linear law is the isothermal state law itself)')))
     return out
 
 

@@ -53,6 +53,7 @@ from granflow.cases.common import (
 from granflow.cases import headlines
 from granflow.cases.registry import CASES
 from granflow.config import CaseConfig, Section
+from granflow.gas import GasCompressibility
 from granflow.simulation import IterationInterval, Simulation, TimeInterval
 from granflow.verification import defluidisation as dfl
 
@@ -122,8 +123,11 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
 
 
 def diffusivity(config: CaseConfig) -> float:
-    """``D = p_atm kappa(phi0)/(1 - phi0)`` [m^2 s^-1] (Carman-Kozeny kappa; NUMERICS.md §1.1)."""
-    return float(config.make_closure().material.gas_diffusivity(packing(config)))
+    """``D = n p_atm kappa(phi0)/(1 - phi0)`` [m^2 s^-1] (Carman-Kozeny kappa; NUMERICS.md §1.1),
+    n the polytropic index of ``gas.compressibility`` (1 isothermal, 1.4 adiabatic;
+    :class:`granflow.gas.GasCompressibility`)."""
+    n = GasCompressibility(config.gas.compressibility).polytropic_index
+    return n * float(config.make_closure().material.gas_diffusivity(packing(config)))
 
 
 def basal_amplitude(config: CaseConfig) -> float:
@@ -179,6 +183,7 @@ def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
     phi0 = packing(config)
     out: dict[str, Any] = {
         "H_m": s.H, "phi0": phi0, "b0": s.b0, "profile": s.profile, "gas_law": gas_law(config),
+        "gas_compressibility": config.gas.compressibility,
         "D_m2_s": D, "tau_1_s": tau1, "p_f0_base_Pa": amp,
         "reference": ("Fourier series of the rigid defluidising column "
                       "(granflow.verification.defluidisation), linear gas law"),

@@ -166,6 +166,8 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
         out.append(("grid.periodic_x", "a column collapse needs walls; set periodic_x = false"))
     if config.gas.law != "none":
         out.append(("gas.law", 'lagree_column is dry; use law = "none"'))
+    if config.gas.compressibility != "isothermal":
+        out.append(("gas.compressibility", "lagree_column is dry: no pore gas to make adiabatic"))
     L0, dx, dz = H0 / s.a, s.Lx / g.nx, s.Lz / g.nz
     if L0 >= s.Lx:
         out.append(("setup.a", f"L0 = 1/a = {L0:.4g} H0 leaves no room to spread (setup.Lx = {s.Lx})"))

@@ -13,10 +13,13 @@ superficial velocity (about the minimum fluidisation velocity U_mf) until the be
    the column ``[0, L0] x [0, H0]`` at ``phi0`` at rest with ``p_f = 0``, and the superficial
    velocity ``U_prep`` injected through its whole base (Neumann ``-kappa dp_f/dz = U_prep``,
    :mod:`granflow.physics.pore_pressure`);
-2. it runs until steady (:class:`SteadyCriterion`: the largest granular speed AND the largest
+2. it runs until steady (:class:`SteadyCriterion`: the largest granular speed -- or, for an
+   over-fluidised bed that never comes to rest, the drift of its height -- AND the largest
    ``|dp_f/dt|`` below stated thresholds, continuously over one gas time ``tau_1``) or until the
    maximum preparation time, whichever comes first -- never longer; whether the steady state was
-   reached is reported, not assumed (an over-fluidised bed, ``U_prep >= U_mf``, may creep for ever);
+   reached is reported, not assumed. Above U_mf the bed expands to the homogeneous packing of
+   :mod:`granflow.theory.fluidisation` in the kinematic-wave time ``t_s`` (seconds for a 10 cm
+   bed: a physical time, not a numerical creep), and may then turn unstable (bubbling);
 3. its ``phi``, ``p`` and ``p_f`` are copied into the columns ``x < L0`` of the collapse grid
    (ambient elsewhere, velocity zero) by :func:`released_state`.
 
@@ -36,6 +39,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
@@ -49,6 +53,8 @@ from granflow.grid import MIN_CELLS
 from granflow.model import Model
 from granflow.simulation import IterationInterval, Simulation, StepFailure
 from granflow.state import State
+from granflow.theory import fluidisation as fluid
+from granflow.theory.fluidisation import minimum_fluidisation_velocity  # noqa: F401  (re-exported)
 
 GATE_WALL = "free_slip"
 """Velocity condition of the gate (east wall of the preparation grid) [-]: a smooth gate."""
@@ -63,9 +69,19 @@ lithostatic pressure [-]."""
 REST_SPEED_FACTOR = 1.0e-3
 """The bed is at rest when its largest granular face speed is below ``REST_SPEED_FACTOR`` times the
 model's creep velocity scale :attr:`Model.gravity_blend_velocity` [-] (eps Lz by default, then
-7.5e-7 m/s; ``numerics.gravity_blend_velocity`` changes it). A bed under U < U_mf has speeds ~1e-13 m/s; an over-fluidised one (U > U_mf,
-or the non-linear law at U_mf, whose top exceeds U_mf as the gas expands) creeps at 1e-5 to
-eps Lz and is never declared steady."""
+7.5e-7 m/s; ``numerics.gravity_blend_velocity`` changes it). A bed under U < U_mf has speeds
+~1e-13 m/s; an over-fluidised one (U > U_mf, or the non-linear law at U_mf, whose top exceeds
+U_mf as the gas expands) rises at U - U_mf(phi0) until expanded, then keeps grid-scale packing
+fluctuations at ~1e-4 m/s: it is judged on its height drift (:data:`HEIGHT_DRIFT_TOL`)."""
+HEIGHT_DRIFT_TOL = 1.0e-3
+"""An expanded (over-fluidised) bed is quiet when its height drifts by less than this fraction of
+the kinematic-wave crossing time's worth: ``|dh/dt| <= HEIGHT_DRIFT_TOL c(phi0)``, with
+``c = -phi dU_mf/dphi`` the speed of the bed's continuity waves
+(:func:`granflow.theory.fluidisation.kinematic_wave_speed`, 26 mm/s for 70 um beads). Over the
+time ``H/c`` a packing perturbation takes to leave the bed, the remaining drift changes the
+height, and the mean packing, by at most ~1e-3 of their values [-]. The rise of the bed before
+the fluidisation front reaches its surface, ``U - U_mf(phi0)``, exceeds this limit by far
+(0.05 c at 1.3 U_mf) for any U above 1.01 U_mf; below that the whole expansion is < 1e-3."""
 STEADY_WINDOW_TAU = 1.0
 """Both criteria must hold continuously over this many gas times tau_1 [-]."""
 MIN_STEADY_STEPS = 3
@@ -97,21 +113,6 @@ class KeepInjection(StrEnum):
 
 
 # --- physics ---------------------------------------------------------------------------------------
-def minimum_fluidisation_velocity(material, phi: float, g_z: float) -> float:
-    """``U_mf = kappa(phi) phi rho_s |g_z|`` [m s^-1] (module docstring; paper eqs darcy, beta).
-
-    Parameters
-    ----------
-    material : Material
-        d, eta_f, rho_s.
-    phi : float
-        Packing of the bed [-].
-    g_z : float
-        Gravity normal to the base [m s^-2] (sign ignored).
-    """
-    return float(material.permeability(phi)) * phi * material.rho_s * abs(g_z)
-
-
 def gas_time(material, phi: float, height: float) -> float:
     """Slowest gas-diffusion time ``tau_1 = 4 H^2 / (pi^2 D)`` [s] of a bed of ``height`` [m],
     ``D = p_atm kappa(phi)/(1 - phi)`` (MODEL.md §6.7, §7)."""
@@ -172,8 +173,13 @@ def preparation_problems(config: CaseConfig) -> list[tuple[str, str]]:
 # --- the preparation run ---------------------------------------------------------------------------
 @dataclass
 class SteadyCriterion:
-    """Steady when ``max speed <= rest_speed`` and ``max |dp_f/dt| <= pf_rate`` at every accepted
-    step over the last ``window`` seconds (and at least :data:`MIN_STEADY_STEPS` steps).
+    """Steady when the bed is quiet and ``max |dp_f/dt| <= pf_rate`` at every accepted step over
+    the last ``window`` seconds (and at least :data:`MIN_STEADY_STEPS` steps).
+
+    Quiet: ``max speed <= rest_speed`` (a bed at rest, U <= U_mf), or, with ``drift_rate`` given,
+    the height drift ``|h(t) - h(t - window)| / window <= drift_rate`` (an over-fluidised bed:
+    frictionless, p = 0, its packing fluctuates at the grid scale at ~1e-4 m/s for ever, so
+    it is never at rest, but its height, the mass-weighted mean of its packing, stops).
 
     Attributes
     ----------
@@ -183,26 +189,37 @@ class SteadyCriterion:
         [Pa s^-1], :data:`PF_STEADY_TOL` p_lith,base / tau_1.
     window : float
         [s], :data:`STEADY_WINDOW_TAU` tau_1.
+    drift_rate : float or None
+        [m s^-1], :data:`HEIGHT_DRIFT_TOL` x the kinematic-wave speed, for U > U_mf; None: the
+        speed criterion alone.
     """
 
     rest_speed: float
     pf_rate: float
     window: float
+    drift_rate: float | None = None
     since: float | None = None
     steps: int = 0
     steady: bool = False
     last_speed: float = math.inf
     last_rate: float = math.inf
+    last_drift: float = math.inf
+    """Height drift rate over the last window [m s^-1] (inf until the run spans a window)."""
     _p_f: np.ndarray | None = field(default=None, repr=False)
     _t: float = 0.0
+    _heights: deque = field(default_factory=deque, repr=False)
 
     def __call__(self, sim: Simulation) -> None:
         """Callback run after every accepted step (and once at the start)."""
         st, model = sim.state, sim.model
+        if self.drift_rate is not None:
+            self._track_height(st.t, bed_height(model.grid, st.phi))
         if self._p_f is not None and st.t > self._t:
             self.last_rate = float(np.max(np.abs(st.p_f - self._p_f))) / (st.t - self._t)
             self.last_speed = granular_speed(model, st)
-            if self.last_speed <= self.rest_speed and self.last_rate <= self.pf_rate:
+            quiet = self.last_speed <= self.rest_speed or (
+                self.drift_rate is not None and self.last_drift <= self.drift_rate)
+            if quiet and self.last_rate <= self.pf_rate:
                 self.since = self._t if self.since is None else self.since
                 self.steps += 1
                 if st.t - self.since >= self.window and self.steps >= MIN_STEADY_STEPS:
@@ -211,6 +228,24 @@ class SteadyCriterion:
             else:
                 self.since, self.steps = None, 0
         self._p_f, self._t = st.p_f.copy(), st.t
+
+    def _track_height(self, t: float, h: float) -> None:
+        """Keep ``(t, h)`` back to the newest sample at least ``window`` old; update ``last_drift``."""
+        hs = self._heights
+        hs.append((t, h))
+        while len(hs) > 1 and t - hs[1][0] >= self.window:
+            hs.popleft()
+        t_old, h_old = hs[0]
+        if t - t_old >= self.window:
+            self.last_drift = abs(h - h_old) / (t - t_old)
+
+
+def bed_height(grid, phi) -> float:
+    """Mean over the columns of twice the height of the bed's centre of mass [m] (the height of
+    the uniform bed with the same mass and potential energy; :meth:`PreparationResult.bed_profile`)."""
+    column = phi.sum(axis=1) * grid.dz
+    centroid = (phi * grid.zc[None, :]).sum(axis=1) * grid.dz / column
+    return float((2.0 * centroid).mean())
 
 
 @dataclass(frozen=True)
@@ -235,6 +270,15 @@ class PreparationResult:
     """Largest |dp_f/dt| over the last step [Pa s^-1]."""
     rejected: int
     wall_s: float
+    height_drift: float = math.inf
+    """Height drift rate over the last steady window [m s^-1] (inf if the run is shorter)."""
+    drift_limit: float = math.inf
+    """The quiet limit of the height drift, :data:`HEIGHT_DRIFT_TOL` x c(phi0) [m s^-1]."""
+    phi_expected: float = math.nan
+    """Steady homogeneous packing of the model at U_prep
+    (:func:`granflow.theory.fluidisation.expanded_packing`) [-]."""
+    expansion_time: float = math.nan
+    """Predicted time to reach it (:func:`granflow.theory.fluidisation.expansion_time`) [s]."""
 
     def bed_profile(self) -> tuple[float, float, float]:
         """``(height, mean phi, basal p_f / lithostatic)`` of the prepared bed, column means.
@@ -260,7 +304,11 @@ class PreparationResult:
                 "prep_basal_pf_over_lithostatic": basal,
                 "prep_max_speed_m_s": self.max_speed, "prep_pf_rate_Pa_s": self.pf_rate,
                 "U_prep_m_s": self.U_prep, "U_mf_m_s": self.U_mf,
-                "U_prep_over_Umf": self.U_prep / self.U_mf}
+                "U_prep_over_Umf": self.U_prep / self.U_mf,
+                "prep_height_drift_m_s": self.height_drift, "prep_height_drift_limit_m_s": self.drift_limit,
+                "prep_phi_expected": self.phi_expected,
+                "prep_phi_error": phi_mean / self.phi_expected - 1.0,
+                "prep_expansion_time_s": self.expansion_time}
 
 
 def granular_speed(model: Model, state: State) -> float:
@@ -282,7 +330,8 @@ def preparation_config(config: CaseConfig, U_prep: float) -> CaseConfig:
     n = reservoir_cells(config)
     grid = GridSection(nx=n, nz=g.nz, Lx=n * g.Lx / g.nx, Lz=g.Lz, periodic_x=False)
     walls = WallsSection(west=w.west, east=GATE_WALL, bottom=w.bottom, top=w.top)
-    gas = GasSection(law=config.gas.law, U_inj=U_prep, open_top=config.gas.open_top)
+    gas = GasSection(law=config.gas.law, U_inj=U_prep, open_top=config.gas.open_top,
+                     compressibility=config.gas.compressibility)
     return config.model_copy(update={"grid": grid, "walls": walls, "gas": gas})
 
 
@@ -304,9 +353,12 @@ def prepare(config: CaseConfig) -> PreparationResult:
     state = model.initial_state(phi)
     tau_1 = gas_time(mat, phi0, s.H0)
     p_base = float(model.lithostatic_pressure(phi)[:, 0].max())
+    g_z = config.gravity_vector[1]
+    ratio = DEFAULT_U_PREP_OVER_UMF if s.U_prep_over_Umf is None else s.U_prep_over_Umf
     criterion = SteadyCriterion(rest_speed=REST_SPEED_FACTOR * model.gravity_blend_velocity,
                                 pf_rate=PF_STEADY_TOL * p_base / tau_1,
-                                window=STEADY_WINDOW_TAU * tau_1)
+                                window=STEADY_WINDOW_TAU * tau_1,
+                                drift_rate=HEIGHT_DRIFT_TOL * fluid.kinematic_wave_speed(mat, phi0, g_z))
     max_time = DEFAULT_PREP_MAX_TIME if s.prep_max_time is None else s.prep_max_time
     sim = Simulation(model, state, stop_time=max_time, cfl=t.cfl, dt_max=t.dt_max,
                      max_retries=t.max_retries)
@@ -319,7 +371,10 @@ def prepare(config: CaseConfig) -> PreparationResult:
     return PreparationResult(state=sim.state, model=model, U_prep=U_prep, U_mf=U_mf, tau_1=tau_1,
                              steady=criterion.steady, max_speed=granular_speed(model, sim.state),
                              pf_rate=criterion.last_rate, rejected=sim.n_rejected,
-                             wall_s=time.perf_counter() - t0)
+                             wall_s=time.perf_counter() - t0, height_drift=criterion.last_drift,
+                             drift_limit=criterion.drift_rate,
+                             phi_expected=fluid.expanded_packing(mat, phi0, ratio, g_z),
+                             expansion_time=fluid.expansion_time(mat, phi0, s.H0, ratio, g_z))
 
 
 def released_state(model: Model, prep: PreparationResult) -> State:

@@ -148,6 +148,8 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
     out = packing_problems(config)
     if config.gas.law != "none":
         out.append(("gas.law", f"{CASE} has no pore gas (use \"none\")"))
+    if config.gas.compressibility != "isothermal":
+        out.append(("gas.compressibility", f"{CASE} has no pore gas to make adiabatic"))
     inertial, phi_eq = equilibrium(config)
     if not config.numerics.ambient.phi_c < phi_eq <= config.material.phi_max:
         out.append(("setup.S", (f"|S| = {s.S} 1/s at p = {s.p} Pa gives I = {inertial:.4g} and "

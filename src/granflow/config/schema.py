@@ -40,7 +40,7 @@ from pydantic import (
 )
 
 from granflow.config.tomlfile import KEY_SEP, dumps_toml  # noqa: F401  (KEY_SEP: re-exported)
-from granflow.gas import GasLaw
+from granflow.gas import GasCompressibility, GasLaw
 from granflow.grid import MIN_CELLS
 from granflow.materials import Material
 from granflow.model_options import DEFAULT_ISOCHORIC_INTERFACE
@@ -122,6 +122,7 @@ def enum_values(enum) -> tuple[str, ...]:
 
 
 GasLawName = Literal[enum_values(GasLaw)]  # type: ignore[valid-type]
+GasCompressibilityName = Literal[enum_values(GasCompressibility)]  # type: ignore[valid-type]
 AdvectionName = Literal[enum_values(Advection)]  # type: ignore[valid-type]
 PhiSchemeName = Literal[enum_values(PhiScheme)]  # type: ignore[valid-type]
 SurfaceName = Literal[enum_values(Surface)]  # type: ignore[valid-type]
@@ -295,6 +296,9 @@ class GasSection(Section):
                             'or "nonlinear" (eq. pressure-diffusion-nonlinear) [-]')
     U_inj: float = Field(0.0, ge=0, description="superficial gas velocity injected through the base [m s^-1]")
     open_top: bool = Field(False, description="p_f = 0 on the top wall (else impermeable) [-]")
+    compressibility: GasCompressibilityName = Field(
+        "isothermal", description='state law of the pore gas: "isothermal" (the paper\'s eq. syst2b) or '
+        '"adiabatic" (gamma = 1.4: pore-pressure diffusivity 1.4 times larger; needs law = "linear") [-]')
 
 
 class OutputSection(Section):

@@ -17,6 +17,9 @@ ambient), step n -> n+1::
   (:func:`granflow.physics.pore_pressure.gas_operator`): LINEAR ``K = p_atm kappa`` (syst2b),
   NONLINEAR ``K = kappa (p_atm + p_f^n)`` (eq. pressure-diffusion-nonlinear, lagged at ``p_f^n``);
   open top optional, impermeable walls and base otherwise;
+* ``compressibility`` (:class:`granflow.gas.GasCompressibility`, LINEAR only): the capacity, the
+  history and the transport terms are divided by the polytropic index n (1 isothermal, the
+  default; 1.4 adiabatic), and so are the gas energy and the capacity terms of :class:`GasPowers`;
 * ``p_atm Div u^{n+1}`` is implicit: the rows border the (u, p) saddle matrix
   (:class:`granflow.physics.momentum.GasBorder`), and the momentum rows get the full
   ``Grad p_f^{n+1}`` (syst3b). One monolithic solve per Picard sweep -- never a sequential pass,
@@ -58,8 +61,8 @@ from granflow.grid import Grid
 from granflow.materials import Material
 from granflow.operators import Operators
 from granflow.physics.momentum import GasBorder
-from granflow.physics.pore_pressure import (GasLaw, darcy_dissipation, explicit_rhs, gas_operator,
-                                            transport_divergence)
+from granflow.physics.pore_pressure import (GasCompressibility, GasLaw, darcy_dissipation, explicit_rhs,
+                                            gas_operator, polytropic_index, transport_divergence)
 from granflow.physics.transport import advect
 
 
@@ -160,10 +163,13 @@ class GasCoupling:
     injection : float or array_like (nx,)
         Superficial gas velocity ``U_inj`` [m s^-1] through the porous base,
         ``-kappa dp_f/dz = U_inj`` (>= 0 upwards).
+    compressibility : GasCompressibility or str
+        ``"isothermal"`` (default, the paper's syst2b) or ``"adiabatic"`` (LINEAR only).
     """
 
     def __init__(self, grid: Grid, ops: Operators, material: Material, gas: GasLaw | str,
-                 open_top: bool = False, injection=0.0) -> None:
+                 open_top: bool = False, injection=0.0,
+                 compressibility: GasCompressibility | str = GasCompressibility.ISOTHERMAL) -> None:
         try:
             self.gas = GasLaw(gas)
         except ValueError:
@@ -178,6 +184,9 @@ class GasCoupling:
         self.grid, self.ops, self.material = grid, ops, material
         self.open_top = bool(open_top)
         self.injection = u
+        self.polytropic = polytropic_index(self.gas, compressibility)
+        """Polytropic index n of the gas [-] (1 isothermal)."""
+        self.compressibility = GasCompressibility(compressibility)
 
     def prepare(self, phi, p_f, vel, dt: float, wet, face_factor=None) -> GasSystem:
         """Gas rows of the step from ``t^n`` fields (``phi``, ``p_f`` [Pa], ``vel``) and ``wet``
@@ -196,10 +205,12 @@ class GasCoupling:
         phi_star = (np.clip(advect(g, phi_old.reshape(g.cell_shape), vel, dt).phi.ravel(), 0.0, mat.phi_max)
                     if moving else np.clip(phi_old, 0.0, mat.phi_max))
         block = gas_operator(g, ops, phi_star, dt, mat, gas=self.gas, p_f=q, dirichlet=~wet,
-                             open_top=self.open_top, injection=self.injection, face_factor=face_factor)
+                             open_top=self.open_top, injection=self.injection, face_factor=face_factor,
+                             compressibility=self.compressibility)
         T = (transport_divergence(g, ops, np.clip(phi_old, 0.0, mat.phi_max), q, vel) if moving
              else np.zeros(g.n_cells))
-        rhs = explicit_rhs(g, np.clip(phi_old, 0.0, mat.phi_max), q, dt, transport=T, dirichlet=~wet)
+        rhs = explicit_rhs(g, np.clip(phi_old, 0.0, mat.phi_max), q, dt, transport=T, dirichlet=~wet,
+                           polytropic=self.polytropic)
         idx = np.flatnonzero(wet)
         M = block.matrix.tocsr()[idx][:, idx].tocsr()
         return GasSystem(wet=wet, phi_star=phi_star, phi_old=phi_old, p_f_old=q, transport=T,
@@ -220,19 +231,20 @@ class GasCoupling:
         darcy = darcy_dissipation(g, ops, phi_s, p, mat, open_top=self.open_top,
                                   weighted=self.gas is GasLaw.LINEAR, face_factor=system.face_factor)
         pw = p[wet]
-        cap = (1.0 - phi_s[wet]) / dt
+        n = self.polytropic  # the storage terms carry 1/n (1.0 isothermal: unchanged values)
+        cap = (1.0 - phi_s[wet]) / (n * dt)
         Lp = system.matrix @ pw - cap * pw
         bregman = e_q - e_p - de_p * (q - p)
-        transport = -float(np.sum(((phi_n - phi_s) * e_p + (phi_s - phi_o) * (e_q - q * de_p))[wet]) / dt
-                      + np.sum((de_p * system.transport)[wet])
+        transport = -float(np.sum(((phi_n - phi_s) * e_p + (phi_s - phi_o) * (e_q - q * de_p))[wet]) / (n * dt)
+                      + np.sum((de_p * system.transport)[wet]) / n
                       + np.sum(((pa * de_p - p) * div_u)[wet]))
         return GasPowers(
             darcy=darcy,
             work=dV * float(p @ div_u),
             work_momentum=-dV * float(vel @ (ops.grad @ p)),
             injection=dV * float(np.sum((de_p * system.source)[wet])),
-            backward_euler=-dV * float(np.sum(((1.0 - phi_s) * bregman)[wet])) / dt,
-            ambient=-dV * float(np.sum(((1.0 - np.clip(phi_o, 0.0, mat.phi_max)) * e_q)[~wet])) / dt,
+            backward_euler=-dV * float(np.sum(((1.0 - phi_s) * bregman)[wet])) / (n * dt),
+            ambient=-dV * float(np.sum(((1.0 - np.clip(phi_o, 0.0, mat.phi_max)) * e_q)[~wet])) / (n * dt),
             transport=dV * transport,
             diffusion=darcy - dV * float(de_p[wet] @ Lp),
         )

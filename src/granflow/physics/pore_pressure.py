@@ -8,6 +8,10 @@ Equation (cell centres, gauge pore pressure ``p_f`` [Pa], backward Euler in time
 * :attr:`GasLaw.LINEAR` -- paper eq. syst2b (= pressure-diffusion): ``K = p_atm kappa(phi)``.
 * :attr:`GasLaw.NONLINEAR` -- paper eq. pressure-diffusion-nonlinear: ``K = kappa (p_atm + p_f)``,
   lagged at ``p_f^n`` (face value = mean of the two cells), so each step stays linear.
+* ``compressibility`` (:class:`granflow.gas.GasCompressibility`, LINEAR law only): the storage
+  terms ``(1 - phi) p_f/dt`` (both sides) and the transport are divided by the polytropic index n
+  (1 isothermal, the paper's and the default; 1.4 adiabatic), so ``D = n p_atm kappa/(1 - phi)``;
+  the gas energy :func:`gas_energy` is divided by n too. n = 1 divides by 1.0: bit-identical.
 
 ``kappa(phi) = d^2 (1-phi)^3 / (150 eta_f phi^2)`` [m^2 Pa^-1 s^-1] (Carman-Kozeny, paper eq. beta)
 is evaluated at cells with ``phi`` clipped to ``[PHI_FLOOR, phi_max]`` and put on faces by the
@@ -61,7 +65,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from granflow.gas import GasLaw  # noqa: F401  (re-exported: the solver's gas laws)
+from granflow.gas import GasCompressibility, GasLaw  # noqa: F401  (re-exported: the solver's gas laws)
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.materials import Material
@@ -160,6 +164,16 @@ def _enum(cls: type[Enum], value):
         raise GranflowInputError(f"unknown {cls.__name__} {value!r}; expected one of {allowed}") from None
 
 
+def polytropic_index(gas: GasLaw, compressibility) -> float:
+    """n of :class:`GasCompressibility` [-]; GranflowInputError naming ``gas.compressibility`` for
+    an unknown value or ``"adiabatic"`` with a law other than LINEAR."""
+    comp = _enum(GasCompressibility, compressibility)
+    if comp is not GasCompressibility.ISOTHERMAL and gas is not GasLaw.LINEAR:
+        raise GranflowInputError(f'gas.compressibility = "{comp.value}" needs gas.law = "linear" (the '
+                                 f'non-linear law is the isothermal state law itself), got {gas.value!r}')
+    return comp.polytropic_index
+
+
 def _top_cells(grid: Grid) -> np.ndarray:
     return np.arange(grid.nx) * grid.nz + grid.nz - 1
 
@@ -224,7 +238,8 @@ def _diffusion_pattern(ops: Operators) -> _DiffusionPattern:
 
 def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material, *,
                  gas: GasLaw | str = GasLaw.LINEAR, p_f=None, dirichlet=None,
-                 open_top: bool = False, injection=0.0, face_factor=None) -> GasBlock:
+                 open_top: bool = False, injection=0.0, face_factor=None,
+                 compressibility: GasCompressibility | str = GasCompressibility.ISOTHERMAL) -> GasBlock:
     """Matrix and boundary right-hand side of the implicit p_f equation (paper eq. syst2b).
 
     Parameters
@@ -251,16 +266,20 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
     face_factor : array_like (n_unknowns,), optional
         Multiplier of the face mobilities (the indicator surface's faces to the surface,
         :meth:`granflow.model.Model.gas_face_factor`); pass the same to :func:`darcy_dissipation`.
+    compressibility : GasCompressibility or str
+        ``"isothermal"`` (default, n = 1) or ``"adiabatic"`` (n = 1.4, LINEAR only): the capacity
+        is ``(1 - phi)/(n dt)`` (module docstring).
 
     Returns
     -------
     GasBlock
-        ``matrix = diag((1-phi)/dt) + grad^T diag(K_f) grad`` (+ top-face term), symmetric, with
+        ``matrix = diag((1-phi)/(n dt)) + grad^T diag(K_f) grad`` (+ top-face term), symmetric, with
         Dirichlet rows/columns replaced by a scaled identity; ``rhs`` = base-injection source
         ``K_b U_inj/(kappa_b dz)`` [Pa s^-1] (``K_b/kappa_b = p_atm`` or ``p_atm + p_f^n``).
     """
     ops = _checked(grid, ops, material)
     gas, dt = _enum(GasLaw, gas), _dt(dt)
+    n_poly = polytropic_index(gas, compressibility)
     phi = _phi(grid, phi)
     mask = _mask(grid, dirichlet)
     u_inj = _injection(grid, injection)
@@ -281,7 +300,7 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
     K_f = kappa_f * (material.p_atm + gauge_faces)
     pat = _diffusion_pattern(ops)
     data = pat.P @ K_f
-    data[pat.diag] += (1.0 - phi) / dt  # capacity
+    data[pat.diag] += (1.0 - phi) / (n_poly * dt)  # capacity
     if open_top:
         top = np.zeros(grid.n_cells)
         top[_top_cells(grid)] = GHOST_FACE_FACTOR * material.p_atm * kappa_top / grid.dz**2
@@ -297,8 +316,10 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
     return GasBlock(pat.matrix(data), rhs)
 
 
-def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=None) -> np.ndarray:
-    """History part of the right-hand side, ``(1 - phi^n) p_f^n/dt - div((1-phi) p_f u)^n`` [Pa s^-1].
+def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=None,
+                 polytropic: float = 1.0) -> np.ndarray:
+    """History part of the right-hand side, ``[(1 - phi^n) p_f^n/dt - div((1-phi) p_f u)^n] / n``
+    [Pa s^-1], n = ``polytropic`` (:func:`polytropic_index`; 1 isothermal).
 
     ``transport`` is the cell array of :func:`transport_divergence` (None: rigid bed). Zero in
     Dirichlet cells and for ``dt = inf``.
@@ -309,6 +330,7 @@ def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=
     rhs = np.zeros(grid.n_cells) if math.isinf(dt) else (1.0 - phi_old) * p_old / dt
     if transport is not None:
         rhs = rhs - _cell_field(grid, "transport", transport)
+    rhs = rhs / polytropic
     rhs[_mask(grid, dirichlet)] = 0.0
     return rhs
 
@@ -356,9 +378,12 @@ class PorePressureStep:
 
     def __init__(self, grid: Grid, material: Material, ops: Operators | None = None, *,
                  gas: GasLaw | str = GasLaw.LINEAR, dirichlet=None, open_top: bool = False,
-                 injection=0.0) -> None:
+                 injection=0.0,
+                 compressibility: GasCompressibility | str = GasCompressibility.ISOTHERMAL) -> None:
         self.ops = _checked(grid, ops, material)
         self.grid, self.material, self.gas = grid, material, _enum(GasLaw, gas)
+        self.compressibility = _enum(GasCompressibility, compressibility)
+        self.polytropic = polytropic_index(self.gas, self.compressibility)
         self.dirichlet = _mask(grid, dirichlet).copy()
         self.open_top = bool(open_top)
         self.injection = _injection(grid, injection).copy()
@@ -376,11 +401,12 @@ class PorePressureStep:
         if self.gas is GasLaw.NONLINEAR or key != self._key:
             block = gas_operator(self.grid, self.ops, phi, dt, self.material, gas=self.gas,
                                  p_f=p_old, dirichlet=self.dirichlet, open_top=self.open_top,
-                                 injection=self.injection)
+                                 injection=self.injection, compressibility=self.compressibility)
             self._lu = splu(sp.csc_matrix(block.matrix))
             self._rhs_bc, self._key = block.rhs, key
             self.n_factorisations += 1
-        rhs = explicit_rhs(self.grid, phi, p_old, dt, dirichlet=self.dirichlet) + self._rhs_bc
+        rhs = explicit_rhs(self.grid, phi, p_old, dt, dirichlet=self.dirichlet,
+                           polytropic=self.polytropic) + self._rhs_bc
         return self._lu.solve(rhs).reshape(self.grid.cell_shape)
 
     step = __call__
@@ -394,11 +420,12 @@ def step_static(grid: Grid, phi, p_f, dt, material: Material, ops: Operators | N
 
 # --- energy ---------------------------------------------------------------------------------------
 def gas_energy(grid: Grid, phi, p_f, material: Material,
-               density: GasEnergy | str = GasEnergy.LOG) -> float:
-    """``E_1 = sum (1 - phi) e(p_f) dV`` [J m^-1] (per unit width; paper eq. H(p), MODEL.md §5).
+               density: GasEnergy | str = GasEnergy.LOG, polytropic: float = 1.0) -> float:
+    """``E_1 = sum (1 - phi) e(p_f) dV / n`` [J m^-1] (per unit width; paper eq. H(p), MODEL.md §5).
 
     ``density`` LOG: ``e = (p_atm + p) ln(1 + p/p_atm) - p``; QUADRATIC: ``p^2/(2 p_atm)``
-    (pairings with :func:`darcy_dissipation` in the module docstring).
+    (pairings with :func:`darcy_dissipation` in the module docstring); n = ``polytropic``
+    (:func:`polytropic_index`; 1 isothermal): the storage of the adiabatic gas is n times smaller.
     """
     density = _enum(GasEnergy, density)
     phi = _phi(grid, phi)
@@ -408,7 +435,7 @@ def gas_energy(grid: Grid, phi, p_f, material: Material,
         e = (pa + p) * np.log1p(p / pa) - p
     else:
         e = p**2 / (2.0 * pa)
-    return float(np.sum((1.0 - phi) * e) * grid.cell_volume)
+    return float(np.sum((1.0 - phi) * e) * grid.cell_volume / polytropic)
 
 
 def darcy_dissipation(grid: Grid, ops: Operators, phi, p_f, material: Material, *,
