@@ -5,7 +5,7 @@
   an import cycle, and it is allowed -- but it is still a dependency, so the layering rule below
   counts it too.
 * No upward import: the numerical core (grid, operators, solvers, physics, rheology, model, state,
-  step, simulation, schedules) imports none of cases, cli, plotting, sweep -- at module level or in a function.
+  step, simulation, schedules) imports none of cases, casekit, cli, plotting, sweep -- at module level or in a function.
 * ``granflow.config`` depends on nothing above it (not on cases, cli, plotting, sweep), nor does
   ``granflow.output`` (the writers and recorders a Simulation runs without the case runner).
 * Sizes (issue 18): no function of ``src/granflow`` over :data:`MAX_FUNCTION_LINES` lines, no
@@ -23,7 +23,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "granflow"
 CORE = ("grid", "operators", "solvers", "physics", "rheology", "model", "state", "step", "simulation",
         "schedules")
-TOP = ("cases", "cli", "plotting", "closure_figures", "case_figures", "sweep", "sweep_spec", "sweep_files")
+TOP = ("cases", "casekit", "cli", "plotting", "closure_figures", "case_figures", "sweep", "sweep_spec", "sweep_files")
 MAX_FUNCTION_LINES = 80
 """Longest function or method [lines, from ``def`` to its last line; decorators not counted]."""
 MAX_MODULE_LINES = 500
@@ -210,7 +210,7 @@ def test_the_scan_sees_the_package(graphs):
     top, deferred = graphs
     assert len(top) > 50
     assert "granflow.grid" in top["granflow.model"]
-    assert "granflow.cases.runner" in top["granflow.cli.run"] | deferred["granflow.cli.run"]
+    assert "granflow.casekit.runner" in top["granflow.cli.run"] | deferred["granflow.cli.run"]
 
 
 def test_no_import_cycle_at_module_level(graphs):

@@ -37,9 +37,9 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from granflow.cases.common import make_grid, make_simulation, packing_problems
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit.common import make_grid, make_simulation, packing_problems
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.grid import VelocityBCs
 from granflow.model import Model, StepReport, StepStatus
