@@ -65,5 +65,5 @@ def test_an_object_without_the_interface_is_refused_naming_what_it_lacks():
 
     with pytest.raises(GranflowInputError, match="model interface.*NoAdvance without advance$"):
         Simulation(NoAdvance(), state, stop_time=1.0)
-    with pytest.raises(GranflowInputError, match="without grid, gravity, material, gas, advance, inertia_density"):
+    with pytest.raises(GranflowInputError, match="without " + ", ".join(MODEL_INTERFACE) + "$"):
         Simulation(object(), state, stop_time=1.0)

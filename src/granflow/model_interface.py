@@ -17,8 +17,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 @runtime_checkable
 class SteppingModel(Protocol):
-    """What :class:`granflow.simulation.Simulation` uses of its model (issue 18 item 4): any object with these
-    attributes is accepted, :class:`granflow.model.Model` or not.
+    """What :class:`granflow.simulation.Simulation` uses of its model (issue 18 item 4): any object
+    with these attributes is accepted, :class:`granflow.model.Model` or not.
 
     The loop reads ``grid`` (time step, state checks) and calls ``advance(state, dt)``, which
     advances ``state`` in place by ``dt`` [s] and returns a :class:`~granflow.model.StepReport`
