@@ -38,6 +38,7 @@ import math
 import time
 from pathlib import Path
 
+from granflow import diagnostics as dg
 from granflow.cases import CASES
 from granflow.config import CaseConfig
 from granflow.verification.convergence import richardson
@@ -55,25 +56,37 @@ FRONT_TOL = 0.05
 """Acceptance: |granflow - Basilisk| / Basilisk for the fronts at the same resolution."""
 PROFILE_TOL = 0.03
 """Acceptance: |h_granflow - h_Basilisk| [H0]."""
+QUANTILES = (0.9, 0.99)
+"""Fractions q of the deposit volume of the mass-quantile fronts x_q
+(:func:`granflow.diagnostics.mass_quantile_front`: the x left of which q of the volume lies) [-]."""
 BASILISK = {
     0.5: {64: {"fronts": (2.344, 3.125, 3.672, 3.984), "facet": (2.391, 3.192, 3.698, 4.011),
                "h": (0.999, 0.948, 0.802, 0.633, 0.465, 0.319, 0.196, 0.104)},
           128: {"fronts": (2.383, 3.086, 3.594, 3.828), "facet": (2.393, 3.165, 3.635, 3.862),
-                "h": (1.000, 0.953, 0.805, 0.633, 0.465, 0.321, 0.207, 0.087)},
+                "h": (1.000, 0.953, 0.805, 0.633, 0.465, 0.321, 0.207, 0.087),
+                "quantiles": {"0.9": (1.936, 2.206, 2.454, 2.617), "0.99": (2.256, 2.914, 3.346, 3.608)}},
           256: {"fronts": (2.383, 3.223, 3.770, 4.062), "facet": (2.424, 3.246, 3.821, 4.125),
                 "h": (1.000, 0.952, 0.801, 0.627, 0.456, 0.309, 0.181, 0.112)}},
     1.42: {64: {"fronts": (1.094, 2.031, 2.969, 3.750), "facet": (1.145, 2.082, 3.016, 3.790),
                 "h": (0.552, 0.429, 0.293, 0.189, 0.107, 0.055, 0.000, 0.000)},
            128: {"fronts": (1.094, 1.953, 2.461, 2.656), "facet": (1.153, 1.993, 2.610, 2.919),
-                 "h": (0.560, 0.432, 0.298, 0.202, 0.127, 0.063, 0.000, 0.000)},
+                 "h": (0.560, 0.432, 0.298, 0.202, 0.127, 0.063, 0.000, 0.000),
+                 "quantiles": {"0.9": (0.848, 1.362, 1.760, 1.967), "0.99": (1.044, 1.868, 2.436, 2.725)}},
            256: {"fronts": (1.094, 2.051, 2.559, 3.027), "facet": (1.163, 2.093, 2.819, 3.203),
-                 "h": (0.560, 0.429, 0.297, 0.198, 0.111, 0.085, 0.057, 0.000)}},
+                 "h": (0.560, 0.429, 0.297, 0.198, 0.111, 0.085, 0.057, 0.000),
+                 "quantiles": {"0.9": (0.848, 1.369, 1.788, 2.032), "0.99": (1.043, 1.957, 2.620, 3.007)}},
+           512: {"fronts": (1.123, 2.041, 2.705, 3.018),
+                 "quantiles": {"0.9": (0.849, 1.397, 1.877, 2.165), "0.99": (1.051, 1.952, 2.655, 3.042)}}},
     6.26: {64: {"fronts": (0.469, 1.250, 2.109, 2.734), "facet": (0.530, 1.286, 2.117, 2.768),
                 "h": (0.204, 0.103, 0.050, 0.000, 0.000, 0.000, 0.000, 0.000)},
            128: {"fronts": (0.469, 1.133, 1.250, 1.172), "facet": (0.527, 1.187, 1.615, 1.804),
-                 "h": (0.218, 0.121, 0.062, 0.034, 0.000, 0.000, 0.000, 0.000)},
+                 "h": (0.218, 0.121, 0.062, 0.034, 0.000, 0.000, 0.000, 0.000),
+                 "quantiles": {"0.9": (0.347, 0.921, 1.223, 1.292), "0.99": (0.478, 1.143, 1.558, 1.735)}},
            256: {"fronts": (0.469, 1.191, 1.523, 1.035), "facet": (0.543, 1.264, 1.801, 1.966),
-                 "h": (0.218, 0.120, 0.055, 0.045, 0.000, 0.000, 0.000, 0.000)}},
+                 "h": (0.218, 0.120, 0.055, 0.045, 0.000, 0.000, 0.000, 0.000),
+                 "quantiles": {"0.9": (0.357, 0.955, 1.357, 1.464), "0.99": (0.481, 1.212, 1.732, 1.907)}},
+           512: {"fronts": (0.498, 1.270, 1.494, 1.094),
+                 "quantiles": {"0.9": (0.360, 0.995, 1.418, 1.552), "0.99": (0.497, 1.235, 1.767, 1.988)}}},
 }
 """Basilisk granular_column.c (one aspect ratio per process, output events emptied; built with
 qcc -O2 from the comphy-lab/basilisk-C snapshot, qcc.c of 2025-04-22, sandbox files of 2025-05-12;
@@ -82,7 +95,11 @@ same rule as granflow's (right edge of the last column with h > 0.05 H0), ``face
 of any point of the VOF interface (thin sheet and detached fragments included) -- the rule of the
 fronts quoted in issue 12 for a = 0.5 and 6.26 --, and h at t = 4 at x = 0, 0.5, ..., 3.5 (linear
 between column centres) [H0]. The issue's a = 1.42 fronts (2.656, 3.027) and every h it quotes
-are reproduced exactly."""
+are reproduced exactly. ``quantiles``: the mass-quantile fronts x_0.9 and x_0.99 at t = 1, 2, 3, 4
+(:data:`QUANTILES`), computed from the printed deposits h(x) with granflow's
+:func:`granflow.diagnostics.mass_quantile_front`; ``512``: Basilisk's finer level (fronts and
+quantiles only), from the rebuild of session 12 (same source and recipe; its 128^2 and 256^2
+fronts and h reproduce the values above)."""
 NUMERICS = {"advection": "consistent", "surface": "indicator"}
 """Scheme v2: mass-consistent momentum transport and the material-indicator surface (with its
 default base friction at the wall pressure; docs/solver.md "Scheme v2"); every other numerical
@@ -101,17 +118,27 @@ def config(a: float, n: int, stop_time: float = TIMES[-1]) -> CaseConfig:
 
 
 def run_one(a: float, n: int, stop_time: float = TIMES[-1]) -> dict:
-    """One granflow run: fronts at :data:`TIMES`, the t = 4 deposit, energy residual, cost."""
+    """One granflow run: fronts and mass-quantile fronts at :data:`TIMES`, the t = 4 deposit,
+    energy residual, cost. The run is advanced from one time of :data:`TIMES` to the next (the
+    time step lands on them either way: the case's front record is due there)."""
     cfg = config(a, n, stop_time)
     case = CASES.get(CASE)
     sim = case.setup(cfg)
+    quantiles: dict[str, list] = {f"{q:g}": [] for q in QUANTILES}
     t0, c0 = time.perf_counter(), time.process_time()
-    sim.run()
+    for t in [t for t in TIMES if t < stop_time] + [stop_time]:
+        sim.stop_time = t
+        sim.run()
+        if t in TIMES:
+            g = sim.model.grid
+            h = dg.deposit_thickness(g, sim.state.phi, sim.model.material.phi_max)
+            for q in QUANTILES:
+                quantiles[f"{q:g}"].append(dg.mass_quantile_front(g.xf, h, q))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     diag = case.diagnostics(sim, cfg)
     b = sim.budget
     return {"a": a, "n": n, "t_end": float(sim.state.t), "steps": int(sim.state.step),
-            "fronts": [diag["front_at"].get(f"{t:g}") for t in TIMES],
+            "fronts": [diag["front_at"].get(f"{t:g}") for t in TIMES], "quantiles": quantiles,
             "profile_x": diag["final_profile"]["x"], "profile_h": diag["final_profile"]["h"],
             "h0": diag["final_height_at_wall"], "d": diag["d"],
             "energy_residual_rel": b.residual / b.released if b.released > 0 else None,
@@ -136,6 +163,9 @@ def compare(run: dict) -> dict:
         return {}
     rel = [None if (b is None or g is None) else (g - b) / b for g, b in zip(run["fronts"], ref["fronts"])]
     out = {"front_rel": rel}
+    if "quantiles" in ref and "quantiles" in run:
+        out["quantile_rel"] = {q: [(g - b) / b for g, b in zip(run["quantiles"][q], ref["quantiles"][q])]
+                               for q in ref["quantiles"] if q in run["quantiles"]}
     if "h" in ref:
         out["profile_diff"] = [g - b for g, b in zip(run["profile_h"], ref["h"])]
     return out
@@ -173,6 +203,17 @@ def report(results: dict) -> str:
                      f"{_fmt(None if worst is None else 100 * worst, '.1f')} % | {_fmt(r['h0'])} / {_fmt(h0b)} | "
                      f"{_fmt(100 * r['energy_residual_rel'] if r['energy_residual_rel'] is not None else None, '+.1f')} % | "
                      f"{r['cpu_s']:.0f} |")
+    lines += ["", "Mass-quantile fronts x_q (the x left of which q of the deposit volume lies) at t = 1, 2, 3, 4:",
+              "", "| a | n | q | granflow | Basilisk (same n) | worst |", "|---|---:|---:|---|---|---:|"]
+    for r in sorted(results.values(), key=lambda r: (r["a"], r["n"])):
+        ref = BASILISK.get(r["a"], {}).get(r["n"], {})
+        rel = compare(r).get("quantile_rel", {})
+        for q, xs in r.get("quantiles", {}).items():
+            b = ref.get("quantiles", {}).get(q, ())
+            worst = max((abs(v) for v in rel.get(q, [])), default=None)
+            lines.append(f"| {r['a']:g} | {r['n']} | {q} | {', '.join(_fmt(x) for x in xs)} | "
+                         f"{', '.join(_fmt(x) for x in b) or '–'} | "
+                         f"{_fmt(None if worst is None else 100 * worst, '.1f')} % |")
     lines += ["", "| a | t = 4 front, Richardson (levels) | contact dynamics (final) |", "|---|---|---|"]
     for a, v in ana.items():
         est = v["front4_extrapolated"]

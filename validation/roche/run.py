@@ -52,15 +52,26 @@ def config(ratio: float, H0: float, nz: int, ncol: int, dt_max: float, max_time:
         "time": {"stop_time": 0.003, "dt_max": dt_max}})
 
 
+QUICK = ("small", 1.3)
+"""The ``--quick`` smoke run: the small bed at 1.3 U_mf."""
+
+
+def run(resolution: str = QUICK[0], quick: bool = False, ratio: float = QUICK[1]) -> dict:
+    """One preparation (the validations' common shape, ``run(resolution, quick)``): the bed
+    ``resolution`` (a key of :data:`BEDS`, which fixes H0 and the cells) at ``ratio`` U_mf; its
+    preparation diagnostics. ``quick`` changes nothing here (the small bed is the quick one)."""
+    return prep.prepare(config(ratio, *BEDS[resolution])).diagnostics()
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     """Run the table (module docstring); returns its rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small bed at 1.3 U_mf only")
     args = ap.parse_args(argv)
-    runs = [("small", 1.3)] if args.quick else [(b, r) for b in BEDS for r in RATIOS]
+    runs = [QUICK] if args.quick else [(b, r) for b in BEDS for r in RATIOS]
     rows = []
     for bed, ratio in runs:
-        d = prep.prepare(config(ratio, *BEDS[bed])).diagnostics()
+        d = run(bed, args.quick, ratio)
         row = {"bed": bed, "U_over_Umf": ratio, **{k: d[k] for k in (
             "prep_phi_expected", "prep_phi_mean", "prep_phi_error", "prep_steady", "prep_time_s",
             "prep_expansion_time_s", "prep_max_speed_m_s", "prep_height_drift_m_s", "prep_pf_rate_Pa_s",
