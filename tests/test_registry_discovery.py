@@ -1,7 +1,7 @@
 """Registries find their parts (issue 18 item 4): a closure or a case is one file, no edit elsewhere.
 
 ``granflow.rheology`` and ``granflow.cases`` import every module of their package except those
-named in their ``INFRASTRUCTURE`` tuple (:func:`granflow.registry.discover_modules`). Here:
+named in their ``INFRASTRUCTURE`` tuple, if any (:func:`granflow.registry.discover_modules`). Here:
 
 * a closure written at test time into a temporary directory, handed to
   ``granflow.rheology.discover(paths=[...])``, is listed by ``CLOSURES``, passes the registry-wide
@@ -135,7 +135,7 @@ def unaccounted(package) -> list[str]:
     name = package.__name__
     modules = {f"{name}.{m.name}" for m in pkgutil.iter_modules(package.__path__)
                if not m.name.startswith("_")}
-    infra = {f"{name}.{m}" for m in package.INFRASTRUCTURE}
+    infra = {f"{name}.{m}" for m in getattr(package, "INFRASTRUCTURE", ())}  # granflow.cases: none
     found = set(package.discover())
     parts = part_modules(package)
     problems = [f"{m}: neither discovered nor infrastructure" for m in sorted(modules - found - infra)]

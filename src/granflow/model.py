@@ -73,10 +73,8 @@ The dry model keeps ``state.p_f`` untouched (zero). The fluidised model stores `
 from __future__ import annotations
 
 import time
-from functools import cached_property
 
 import numpy as np
-from scipy.ndimage import maximum_filter
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, VelocityBCs
@@ -106,20 +104,11 @@ from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.coupling import GasCoupling
 from granflow.model_coefficients import ClosureCoefficients
+from granflow.model_fields import FieldMaps
 from granflow.model_gravity import GravityWeights
-from granflow.physics.material import (
-    C_MIN,
-    PHI_EMPTY,
-    advect_material,
-    face_solid_fraction,
-    material_fraction,
-    material_solid_fluxes,
-    packing,
-    surface_distance,
-    surface_lithostatic,
-)
-from granflow.physics.pore_pressure import GasLaw, cell_permeability, face_permeability
-from granflow.physics.transport import PhiScheme, advect
+from granflow.physics.material import packing
+from granflow.physics.pore_pressure import GasLaw
+from granflow.physics.transport import PhiScheme
 from granflow.rheology.base import Closure
 from granflow.solvers import make_linear_solver, pardiso_available
 from granflow.state import State
@@ -134,7 +123,7 @@ def _option(enum_type, value, what: str):
                                  f"{[e.value for e in enum_type]}") from None
 
 
-class Model(ClosureCoefficients, GravityWeights):
+class Model(ClosureCoefficients, GravityWeights, FieldMaps):
     """Grid + closure + gravity + wall conditions + numerical parameters; :meth:`advance`.
 
     Parameters
@@ -324,175 +313,6 @@ class Model(ClosureCoefficients, GravityWeights):
                                      "dependency pypardiso with Intel MKL: pip install 'granflow[fast]' "
                                      "(x86-64 only); or use 'auto' or 'direct'")
         return choice
-
-    # --- fields -------------------------------------------------------------------------------
-    @cached_property
-    def strain_stencils(self) -> tuple:
-        """``(|ec|, |en|)`` (:mod:`granflow.operators`): which velocity unknowns each cell's and
-        node's strain rate reads (the band edge, :func:`granflow.step.band_edge`)."""
-        return abs(self.ops.ec).tocsr(), abs(self.ops.en).tocsr()
-
-    @cached_property
-    def base_node_rows(self) -> tuple:
-        """``(mask of the bottom-row nodes, cell_to_node restricted to them)``
-        (:func:`granflow.step.base_node_viscosity`)."""
-        nodes = np.zeros(self.grid.node_shape, dtype=bool)
-        nodes[:, 0] = True
-        nodes = nodes.ravel()
-        return nodes, self.ops.cell_to_node.tocsr()[nodes]
-
-    @property
-    def indicator(self) -> bool:
-        """True with the material-indicator surface (:class:`Surface`)."""
-        return self.surface is Surface.INDICATOR
-
-    def dense(self, phi, c=None) -> np.ndarray:
-        """Flat mask of the granular (non-ambient) cells: ``phi >= phi_c`` (threshold surface) or
-        ``c > C_MIN`` (indicator surface; without ``c``, the cells holding grains)."""
-        if self.indicator:
-            return np.ravel(c) > C_MIN if c is not None else np.ravel(phi) > PHI_EMPTY
-        return np.ravel(phi) >= self.ambient.phi_c
-
-    def material_of(self, phi) -> np.ndarray | None:
-        """Initial material fraction of a solid fraction field (indicator surface; None
-        otherwise): ``c = min(phi / psi, 1)`` with ``psi`` the largest packing in the 3 x 3
-        neighbourhood (a cell cut by the initial surface holds the packing of the cells beside it)."""
-        if not self.indicator:
-            return None
-        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        return material_fraction(phi, maximum_filter(phi, size=3, mode=self._filter_mode()))
-
-    def transport(self, phi, vel, dt: float, c=None, dilation=None):
-        """The step's transport of the grains with ``vel`` (:func:`granflow.physics.transport.advect`,
-        or with the indicator :func:`granflow.physics.material.advect_material`, whose result also
-        carries ``c``; ``dilation`` the partial cells' dilatation rate [s^-1])."""
-        if self.indicator:
-            return advect_material(self.grid, c, phi, vel, dt, self.material.phi_max, dilation,
-                                   psi_min=self.ambient.phi_c)
-        return advect(self.grid, phi, vel, dt, self.material.phi_max, self.phi_transport)
-
-    def transport_fluxes(self, phi, vel, dt: float, c=None, window="auto") -> tuple:
-        """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] of :meth:`transport` with the same
-        arguments (the indicator: :func:`granflow.physics.material.material_solid_fluxes`, the
-        fluxes only; ``window`` its material window if known)."""
-        if self.indicator:
-            return material_solid_fluxes(self.grid, c, phi, vel, dt, self.material.phi_max, window)
-        moved = self.transport(phi, vel, dt, c)
-        return moved.flux_x, moved.flux_z
-
-    def _filter_mode(self):
-        return ("wrap", "nearest") if self.grid.periodic_x else "nearest"
-
-    def interface_band(self, phi, radius: int = INTERFACE_RADIUS) -> np.ndarray:
-        """Mask (nx, nz) of the dense cells within ``radius`` cells (a (2r+1)^2 neighbourhood)
-        of an ambient cell."""
-        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        ambient = phi < self.ambient.phi_c
-        return maximum_filter(ambient, size=2 * radius + 1, mode=self._filter_mode()) & ~ambient
-
-    def velocity_region(self, phi) -> np.ndarray | None:
-        """Flat mask (n_unknowns,) of the velocity unknowns solved in a step from ``phi``: the
-        faces of the cells within :attr:`velocity_band` cells of grains
-        (``phi > PHI_TRACE phi_max``, :attr:`AmbientParams.velocity_band`); None = all of them
-        (no band, or no grains)."""
-        r = self.velocity_band
-        if r is None:
-            return None
-        grains = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape) > PHI_TRACE * self.material.phi_max
-        mode = ("wrap", "constant") if self.grid.periodic_x else "constant"
-        band = maximum_filter(grains, size=2 * r + 1, mode=mode)
-        faces = (self._face_cells @ band.ravel().astype(float)) > 0.0
-        return faces if faces.any() and not faces.all() else None
-
-    def effective_packing(self, phi, c=None) -> np.ndarray:
-        """Flat phi at which the closure is evaluated: the packing inside the material
-        ``phi / c`` (indicator surface) or phi_loc near the ambient (NUMERICS.md §7.1), clipped
-        to ``[PHI_FLOOR, phi_max]``."""
-        if self.indicator:
-            return np.clip(packing(c, phi), PHI_FLOOR, self.material.phi_max).ravel()
-        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        out = phi
-        if self.interface_packing:
-            near = self.interface_band(phi)
-            out = np.where(near, maximum_filter(phi, size=2 * INTERFACE_RADIUS + 1,
-                                                mode=self._filter_mode()), phi)
-        return np.clip(out, PHI_FLOOR, self.material.phi_max).ravel()
-
-    def inertia_density(self, phi) -> np.ndarray:
-        """Face inertia [kg m^-3] at the velocity unknowns: ``rho_s phi_f + rho_a`` with the
-        consistent momentum transport (the dual-cell mass of
-        :mod:`granflow.physics.momentum_transport` plus a constant ambient floor), else
-        ``max(phi_f rho_s, rho_a)`` (v1, :func:`granflow.physics.momentum.face_density`)."""
-        if self.advection is mom.Advection.CONSISTENT:
-            phi_f = self.ops.cell_to_face @ np.ravel(phi)
-            return self.material.rho_s * np.maximum(phi_f, 0.0) + self.ambient.rho_a
-        return mom.face_density(self.ops, phi, self.material.rho_s, self.ambient.rho_a)
-
-    def lithostatic_pressure(self, phi, c=None) -> np.ndarray:
-        """Discrete hydrostatic p [Pa], shape (nx, nz): the p with ``Grad p = f_g`` on the z-faces
-        of every column (trapezoidal sum of ``phi rho_s |g_z| dz`` from the top), zero in the
-        ambient. For a uniform layer filling whole cells it equals ``phi rho_s |g_z| (H - z)``.
-        Indicator surface: the hydrostatic pressure of the reconstructed material
-        (:func:`granflow.physics.material.surface_lithostatic`; ``c`` defaults to
-        :meth:`material_of`), ``p = 0`` at the surface."""
-        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        if self.indicator:
-            c = self.material_of(phi) if c is None else np.asarray(c, dtype=float).reshape(phi.shape)
-            return surface_lithostatic(c, phi, self.material.rho_s * abs(self.gravity[1]) * self.grid.dz)
-        upper = np.concatenate([phi[:, 1:], np.zeros((phi.shape[0], 1))], axis=1)
-        face = 0.5 * (phi + upper) * self.material.rho_s * abs(self.gravity[1]) * self.grid.dz
-        p = np.cumsum(face[:, ::-1], axis=1)[:, ::-1]
-        return np.where(self.dense(phi).reshape(self.grid.cell_shape), p, 0.0)
-
-    def initial_state(self, phi, p_f=0.0) -> State:
-        """State at rest with ``phi``, pore pressure ``p_f`` [Pa] (zeroed in the ambient) and
-        ``p = max(lithostatic - p_f, 0)`` as first Picard iterate (the effective pressure
-        ``p + p_f`` carries the weight). ``p_f = b * model.lithostatic_pressure(phi)`` is a bed
-        fluidised to the degree ``b``. A dry model accepts only ``p_f = 0``."""
-        phi = np.asarray(phi, dtype=float)
-        try:
-            p_f = np.broadcast_to(np.asarray(p_f, dtype=float), self.grid.cell_shape)
-        except ValueError:
-            raise GranflowInputError(f"Model.initial_state: p_f must be a scalar or of shape "
-                                     f"{self.grid.cell_shape}") from None
-        if self.gas is None and np.any(p_f != 0.0):
-            raise GranflowInputError("Model.initial_state: p_f != 0 needs a gas law (gas=...)")
-        p_f = np.where(self.dense(phi).reshape(self.grid.cell_shape), p_f, 0.0)
-        p = np.maximum(self.lithostatic_pressure(phi) - p_f, 0.0)
-        return State.at_rest(self.grid, phi, p=p, p_f=p_f, c=self.material_of(phi))
-
-    def face_fraction(self, phi, c=None) -> np.ndarray:
-        """Solid fraction weighed at the velocity unknowns when they are at rest [-]: the centred
-        mean of the two cells, and with the indicator surface on the interior z-faces the grains
-        of the reconstructed material in the face's dual cell
-        (:func:`granflow.physics.material.face_solid_fraction`), so that ``p = 0`` sits at the
-        surface."""
-        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        out = self.ops.cell_to_face @ phi.ravel()
-        if self.indicator and c is not None:
-            c = np.asarray(c, dtype=float).reshape(phi.shape)
-            out[self.grid.w_slice] = face_solid_fraction(c, phi).ravel()  # interior z-faces
-        return out
-
-    def gas_face_factor(self, c, psi) -> np.ndarray:
-        """Multiplier of the gas face mobilities (n_unknowns,) that puts ``p_f = 0`` at the
-        reconstructed surface (indicator surface): on a z-face from a wet cell to the cell above
-        it without a row, the mobility becomes ``kappa(psi_below) / theta`` with ``theta`` the
-        centre-to-surface distance in cells (:func:`granflow.physics.material.surface_distance`),
-        so that the Darcy flux there is ``kappa p_f / (theta dz)`` (Gibou et al. 2002); 1 on the
-        other faces. ``psi`` the packing inside the material [-]."""
-        g = self.grid
-        psi = np.asarray(psi, dtype=float).reshape(g.cell_shape)
-        theta = surface_distance(np.asarray(c, dtype=float).reshape(g.cell_shape))
-        kappa_f, _ = face_permeability(g, self.ops, psi, self.material)
-        kc = cell_permeability(psi, self.material)
-        out = np.ones(g.n_unknowns)
-        kz = kappa_f[g.w_slice].reshape(g.nx, g.nz - 1)
-        at = np.isfinite(theta)
-        out_z = np.ones_like(kz)
-        out_z[at] = kc[:, :-1][at] / (theta[at] * kz[at])
-        out[g.w_slice] = out_z.ravel()
-        return out
 
     # --- one step -----------------------------------------------------------------------------
     def advance(self, state: State, dt: float) -> StepReport:

@@ -50,7 +50,7 @@ def rest_speed_of(ds) -> float:
         rest = cfg.get("output", {}).get("rest_speed")
         if rest is not None:
             return float(rest)
-        from granflow.cases.runner import REST_SPEED_FACTOR  # the run's default, one definition
+        from granflow.casekit.runner import REST_SPEED_FACTOR  # the run's default, one definition
 
         return REST_SPEED_FACTOR * float(cfg["numerics"]["eps"]) * float(cfg["grid"]["Lz"])
     except (tomllib.TOMLDecodeError, KeyError, TypeError, ValueError):

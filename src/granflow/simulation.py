@@ -44,7 +44,8 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from granflow.diagnostics import EnergyBudget
 from granflow.errors import GranflowError, GranflowInputError
-from granflow.model import Model, StepReport
+from granflow.model import Model, StepReport  # noqa: F401  (Model: the model of the docstrings)
+from granflow.model_interface import MODEL_INTERFACE, SteppingModel  # re-exported
 from granflow.physics.transport import stable_dt
 from granflow.schedules import (  # noqa: F401 - re-exported: the schedules of a Simulation
     TIME_EPS,
@@ -169,11 +170,13 @@ class RunTotals:
 
 
 class Simulation:
-    """Run a :class:`Model` from ``state`` to ``stop_time``.
+    """Run a model from ``state`` to ``stop_time``.
 
     Parameters
     ----------
-    model : Model
+    model : SteppingModel
+        A :class:`granflow.model.Model`, or any object with the interface of
+        :class:`SteppingModel`.
     state : State
         Advanced in place.
     stop_time : float
@@ -196,11 +199,14 @@ class Simulation:
         (:class:`granflow.schedules.ScheduledEntries`).
     """
 
-    def __init__(self, model: Model, state: State, stop_time: float, cfl: float = DEFAULT_CFL,
+    def __init__(self, model: SteppingModel, state: State, stop_time: float, cfl: float = DEFAULT_CFL,
                  dt_max: float = DEFAULT_DT_MAX, max_retries: int = DEFAULT_MAX_RETRIES,
                  max_steps: int | None = None, callbacks=None) -> None:
-        if not isinstance(model, Model):
-            raise GranflowInputError(f"Simulation: model must be a Model, got {type(model).__name__}")
+        if not isinstance(model, SteppingModel):
+            missing = [name for name in MODEL_INTERFACE if not hasattr(model, name)]
+            raise GranflowInputError(f"Simulation: model must have the model interface (a Model, or "
+                                     f"granflow.simulation.SteppingModel), got {type(model).__name__} "
+                                     f"without {', '.join(missing)}")
         state.check(model.grid)
         if not (0 < cfl <= 1 and dt_max > 0 and stop_time >= state.t):
             raise GranflowInputError(

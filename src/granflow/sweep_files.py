@@ -29,7 +29,7 @@ TABLE_FILE = "sweep_summary.csv"
 MEMBER_PROGRESS_FILE = "progress.json"
 STOP_FILE = "stop"
 """Written in the sweep directory on Ctrl-C: running members stop after their current step (their
-progress callback reads it, :class:`granflow.cases.sweep_member.MemberProgress`), queued ones do
+progress callback reads it, :class:`granflow.casekit.sweep_member.MemberProgress`), queued ones do
 not start; removed when the sweep runs again."""
 #: Member statuses in the table.
 STATUS_OK = "ok"

@@ -249,7 +249,7 @@ def run_single(a: float, level: int, max_steps: int | None = None, workdir: Path
     """One collapse through :class:`CaseRun` (level ``level`` of :func:`levels`, or ``n`` cells over
     H0 if given: tests); saves ``datadir``/<key>.npz and the record in ``results_path``.
     ``extra``: further ``--set`` overrides (tests: e.g. scheme v1's numerics)."""
-    from granflow.cases.runner import CaseRun
+    from granflow.casekit.runner import CaseRun
     from granflow.config import load_case
 
     name = key(a, level)

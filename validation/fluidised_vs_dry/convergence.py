@@ -143,7 +143,7 @@ def run_single(a: float, state: str, level: int, max_steps: int | None = None, w
                datadir: Path = DATA, results_path: Path = RESULTS, n: float | None = None) -> dict:
     """One collapse at level ``level`` of the dry study's :func:`levels` (or ``n`` cells over H0:
     tests); saves ``datadir``/<key>.npz and the record in ``results_path``."""
-    from granflow.cases.runner import CaseRun
+    from granflow.casekit.runner import CaseRun
     from granflow.config import load_case
 
     name = key(a, state, level)

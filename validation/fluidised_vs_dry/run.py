@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from granflow import diagnostics as dg
-from granflow.cases.runner import CaseRun
+from granflow.casekit.runner import CaseRun
 from granflow.config import load_case
 from granflow.verification.scripts import load_json
 

@@ -49,7 +49,7 @@ import netCDF4
 import numpy as np
 
 from granflow import diagnostics as dg
-from granflow.cases.runner import CaseRun
+from granflow.casekit.runner import CaseRun
 from granflow.config import CaseConfig
 from granflow.output import ordered
 from granflow.verification.convergence import richardson

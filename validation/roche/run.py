@@ -3,7 +3,7 @@ expansion law.
 
 A column of 70 um glass beads poured at phi0 = phi_max = 0.6 is fluidised by air injected through
 its porous base at U = 1.1, 1.3, 1.6 U_mf, with the preparation of ``column_collapse``
-(``setup.preparation = "injection"``, :mod:`granflow.cases.preparation`: the reservoir alone, gate
+(``setup.preparation = "injection"``, :mod:`granflow.casekit.preparation`: the reservoir alone, gate
 closed, linear gas law, Drucker-Prager closure). Compared, for each U/U_mf:
 
 * analytic: the root phi_e of the model's drag/weight balance kappa(phi) phi rho_s g = U and the
@@ -27,7 +27,7 @@ import argparse
 import json
 from pathlib import Path
 
-from granflow.cases import preparation as prep
+from granflow.casekit import preparation as prep
 from granflow.config import CaseConfig
 
 HERE = Path(__file__).resolve().parent

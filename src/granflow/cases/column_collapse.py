@@ -17,7 +17,7 @@ Prepared like the experiments (``setup.preparation = "injection"``; Roche et al.
 ``U_prep = U_prep_over_Umf * U_mf`` in a separate simulation of the reservoir alone (gate closed)
 until steady or ``prep_max_time``; its phi, p and p_f are the initial state, and the injection
 stops when the gate opens (or continues under the reservoir or the whole base,
-``setup.keep_injection``). See :mod:`granflow.cases.preparation`.
+``setup.keep_injection``). See :mod:`granflow.casekit.preparation`.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from granflow.cases.common import (
+from granflow.casekit.common import (
     extent_problems,
     gas_problems,
     initial_state,
@@ -35,7 +35,7 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
-from granflow.cases.preparation import (
+from granflow.casekit.preparation import (
     DEFAULT_PREP_MAX_TIME,
     DEFAULT_U_PREP_OVER_UMF,
     Preparation,
@@ -45,8 +45,8 @@ from granflow.cases.preparation import (
     prepare,
     released_state,
 )
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import Simulation
 
@@ -97,7 +97,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
 
 def diagnostics(sim: Simulation, config: CaseConfig) -> dict[str, Any]:
     """Aspect ratio and normalised run-out inputs: a = H0/L0, initial mass; with an injection
-    preparation its outcome (:meth:`granflow.cases.preparation.PreparationResult.diagnostics`)."""
+    preparation its outcome (:meth:`granflow.casekit.preparation.PreparationResult.diagnostics`)."""
     s = config.setup
     out = {"H0_m": s.H0, "L0_m": s.L0, "aspect_ratio": s.H0 / s.L0, "phi0": packing(config),
            "b0": s.b0, "preparation": s.preparation}
@@ -134,7 +134,7 @@ def setup(config: CaseConfig) -> Simulation:
     -------
     Simulation
         With ``setup.preparation = "injection"``, its attribute ``preparation`` is the
-        :class:`~granflow.cases.preparation.PreparationResult`.
+        :class:`~granflow.casekit.preparation.PreparationResult`.
     """
     s = config.setup
     if s.preparation == Preparation.INJECTION:

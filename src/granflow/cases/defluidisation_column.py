@@ -41,7 +41,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from granflow.cases.common import (
+from granflow.casekit.common import (
     extent_problems,
     gas_problems,
     make_model,
@@ -50,8 +50,8 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.gas import GasCompressibility
 from granflow.simulation import IterationInterval, Simulation, TimeInterval

@@ -31,7 +31,7 @@ Numerics. The defaults (scheme v2: indicator surface, consistent momentum transp
 Bagnold within 1 % at 20 and 40 cells over h, from rest or from the exact profile, dry and
 fluidised, 22-28 deg (validation/inclined_plane/README.md); the v1 threshold surface needed four
 non-default surface options (``run.V1_OPTIONS`` there). The Model is
-:func:`granflow.cases.common.make_model` on the periodic grid (:func:`make_inclined_model`).
+:func:`granflow.casekit.common.make_model` on the periodic grid (:func:`make_inclined_model`).
 
 Diagnostics: the surface velocity ``u_s`` (the u of the top row of x-faces, mean over x: the
 stress-free ambient moves with the surface) against Bagnold's, the profile error, phi against
@@ -47,7 +47,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from granflow.cases.common import (
+from granflow.casekit.common import (
     extent_problems,
     gas_problems,
     make_model,
@@ -55,8 +55,8 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.grid import Grid
 from granflow.model import Model
@@ -195,7 +195,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
 
 
 def make_inclined_model(config: CaseConfig) -> Model:
-    """The Model of :func:`granflow.cases.common.make_model` on the periodic grid, with the base
+    """The Model of :func:`granflow.casekit.common.make_model` on the periodic grid, with the base
     injection of ``setup.beta``."""
     g, s = config.grid, config.setup
     grid = Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz, periodic_x=True)

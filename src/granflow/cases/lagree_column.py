@@ -49,10 +49,10 @@ import numpy as np
 from pydantic import Field
 
 from granflow import diagnostics as dg
-from granflow.cases import common
-from granflow.cases.common import make_simulation, rectangle_fraction
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit import common
+from granflow.casekit.common import make_simulation, rectangle_fraction
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import (
     DEFAULT_GRAVITY,
     CaseConfig,
@@ -230,7 +230,7 @@ def numerics_used(config: CaseConfig) -> dict[str, float]:
 
 
 def make_model(config: CaseConfig) -> Model:
-    """The :class:`Model`: :func:`granflow.cases.common.make_model` with the case's box,
+    """The :class:`Model`: :func:`granflow.casekit.common.make_model` with the case's box,
     material, closure, g = 1 and the dimensionless numerics substitutes (:func:`numerics_used`);
     every other option from the config."""
     n, s = config.numerics, config.setup

@@ -11,9 +11,7 @@ Why 0-D and not the full solver. A homogeneous simple shear needs a moving lid (
 over a layer periodic in x; :class:`granflow.grid.VelocityBCs` offers only walls at rest (no-slip
 or free-slip), so :class:`granflow.model.Model` cannot impose the shear, and with gravity p is not
 uniform either. The case therefore runs the homogeneous problem itself: its model,
-:class:`HomogeneousShearModel` (a :class:`~granflow.model.Model` so that the
-:class:`~granflow.simulation.Simulation`, the runner, the NetCDF output and the checkpoints work
-unchanged), advances every cell as an independent copy of the layer with
+:class:`HomogeneousShearModel`, advances every cell as an independent copy of the layer with
 :func:`granflow.physics.dilatancy.homogeneous_layer_step` -- the asymptotic-preserving factor
 ``fac = 1/(1 + dt phi dR/dphi)`` that the dilatancy row of ``Model.advance`` uses
 (``setup.scheme = "ap_linearised"``, default) or the exact backward-Euler solve
@@ -37,9 +35,9 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from granflow.cases.common import make_grid, make_simulation, packing_problems
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit.common import make_grid, make_simulation, packing_problems
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.grid import VelocityBCs
 from granflow.model import Model, StepReport, StepStatus
@@ -80,6 +78,13 @@ class ShearedLayerSetup(Section):
 
 class HomogeneousShearModel(Model):
     """The homogeneous sheared layer, one independent copy per cell (module docstring).
+
+    A :class:`~granflow.model.Model` subclass, though the time loop needs only the interface of
+    :class:`granflow.simulation.SteppingModel` (``grid``, ``gravity``, ``material``, ``gas``,
+    ``advance``, ``inertia_density``): the case runner, the NetCDF writers, the recorders and the
+    checkpoints of ``granflow run`` read more of a Model (``closure``, ``ambient``, ``ops`` for
+    the strain rate of output.nc, ``lithostatic_pressure``, ``material_of``,
+    ``linear_solver_name``, ``velocity_band``, ...), which a stand-alone class would copy.
 
     Parameters
     ----------

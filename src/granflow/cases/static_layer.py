@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from granflow.cases.common import (
+from granflow.casekit.common import (
     extent_problems,
     gas_problems,
     make_model,
@@ -24,8 +24,8 @@ from granflow.cases.common import (
     packing_problems,
     rectangle_fraction,
 )
-from granflow.cases import headlines
-from granflow.cases.registry import CASES
+from granflow.casekit import headlines
+from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import Simulation
 from granflow.state import State

@@ -19,7 +19,7 @@ from granflow.cli import ExitCode
 from granflow.errors import GranflowInputError
 
 OUTPUT_FILE = "output.nc"
-"""File of a run directory that is plotted (:data:`granflow.cases.runner.OUTPUT_FILE`)."""
+"""File of a run directory that is plotted (:data:`granflow.casekit.runner.OUTPUT_FILE`)."""
 GIF_SUFFIX = ".gif"
 TIME_RTOL = 1e-9
 """Relative tolerance (of the time span, at least 1 s) on --time at the ends of the records."""

@@ -94,7 +94,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 
         return list_parts(args)
     from granflow.cases import CASES
-    from granflow.cases.options import describe_options
+    from granflow.casekit.options import describe_options
 
     data = {n: {"summary": CASES.get(n).summary,
                 "setup": {k: v for k, v in describe_options(n).items() if k.startswith("setup.")}}
@@ -115,7 +115,7 @@ def _fmt(v: Any) -> str:
 
 def cmd_config_show(args: argparse.Namespace) -> int:
     """Print every option (TOML-like: ``key = default  # description [units]``)."""
-    from granflow.cases.options import describe_options
+    from granflow.casekit.options import describe_options
     from granflow.config import load_case
 
     values = None
@@ -241,7 +241,7 @@ def stop_on_sigint(sim) -> Iterator[None]:
 def output_directory(args: argparse.Namespace, config) -> Path:
     """The run directory, checked for writability (nothing created): ``--out``, else
     ``output.directory``, else ``runs/<case-file name>``."""
-    from granflow.cases.runner import CHECKPOINT_DIR, RUN_FILES, run_file_globs
+    from granflow.casekit.runner import CHECKPOINT_DIR, RUN_FILES, run_file_globs
     from granflow.output.paths import check_directory
 
     if args.out is not None:
@@ -257,7 +257,7 @@ def output_directory(args: argparse.Namespace, config) -> Path:
 def completion_line(case, s: dict) -> str:
     """``completed t = 0.585 s in 585 steps (11.8 s wall); <the case's headline>`` in the case's
     units; ``(still moving: not final)`` when a settling flow ended before coming to rest."""
-    from granflow.cases import headlines
+    from granflow.casekit import headlines
 
     headline = (case.headline or headlines.column_collapse)(s)
     if s.get("still_moving"):
@@ -271,7 +271,7 @@ def completion_line(case, s: dict) -> str:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``granflow run CASE.toml``; returns a :class:`RunExit` code."""
-    from granflow.cases.runner import CaseRun, RunStatus
+    from granflow.casekit.runner import CaseRun, RunStatus
     from granflow.config import load_case
 
     config = load_case(args.case, args.set)

@@ -16,7 +16,7 @@ Unquoted dotted keys (``setup.b0 = {...}``) and sub-tables (``[parameters.setup]
 Everything is checked before any member runs: unknown keys of the sweep file, the parameter
 definitions (:class:`granflow.sweep.SweepSpec`), the base case file, and the case configuration of
 every member (an error names the member, its overrides and the key). The members then run with
-:func:`granflow.sweep.run_sweep` and :func:`granflow.cases.sweep_member.run_member`; a table of
+:func:`granflow.sweep.run_sweep` and :func:`granflow.casekit.sweep_member.run_member`; a table of
 members is printed and ``DIR/sweep_summary.csv`` written.
 """
 from __future__ import annotations
@@ -199,7 +199,7 @@ def validate_members(spec) -> int:
     GranflowInputError
         Naming the first :data:`MAX_MEMBER_ERRORS` invalid members, their overrides and the key.
     """
-    from granflow.cases.sweep_member import validate_member
+    from granflow.casekit.sweep_member import validate_member
 
     members = spec.members()
     errors = []
@@ -353,7 +353,7 @@ class SweepDisplay:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``granflow sweep``; returns 0 if every member completed, 1 if any failed."""
-    from granflow.cases.sweep_member import run_member
+    from granflow.casekit.sweep_member import run_member
     from granflow.sweep import STATUS_FAILED, SweepInterrupted, run_sweep
 
     if args.workers is not None and args.scheduler is not None:

@@ -6,7 +6,7 @@
 ``[setup]`` model and check, and the checks across sections (:mod:`granflow.config.checks`).
 
 The cases sit above this package: they plug in through :func:`register_cases`, which the case
-registry (granflow.cases.registry) calls with its catalogue when it is imported. A case file names
+registry (granflow.casekit.registry) calls with its catalogue when it is imported. A case file names
 a case, so validating one needs the catalogue; if none is registered yet, the default catalogue
 :data:`DEFAULT_CASES` is imported by name on first use (as an entry point would be) -- the one
 place this package refers to a package above it, and by a string, not an import.

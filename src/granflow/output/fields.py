@@ -4,7 +4,7 @@ the :class:`~granflow.simulation.Simulation` plus its :class:`~granflow.output.V
 for :class:`granflow.output.writers.NetCDFOutputWriter`.
 
 Units are SI; a dimensionless case renames them through a ``unit(si_unit) -> str`` function
-(:data:`UNIT_KINDS`, :data:`SI_KIND`; :attr:`granflow.cases.registry.Case.units`).
+(:data:`UNIT_KINDS`, :data:`SI_KIND`; :attr:`granflow.casekit.registry.Case.units`).
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ SERIES_SPECS = {
 UNIT_KINDS = ("length", "time", "speed", "pressure", "rate", "energy")
 SI_KIND = {"m": "length", "s": "time", "m s-1": "speed", "Pa": "pressure", "s-1": "rate", "J m-1": "energy"}
 """The SI units of the output and the kind of quantity each stands for (a dimensionless case
-replaces them: :attr:`granflow.cases.registry.Case.units`)."""
+replaces them: :attr:`granflow.casekit.registry.Case.units`)."""
 
 
 def si_unit(unit: str) -> str:

@@ -14,8 +14,9 @@ from granflow.registry import discover_modules
 from granflow.rheology.base import CLOSURES, Closure, make_closure, make_equilibrium
 
 #: The modules of this package that define no closure (the interface, the SymPy derivation, the
-#: shared functions mu(I), G(I), ...); every other module is a closure module.
-INFRASTRUCTURE = ("base", "derive", "functions")
+#: shared functions mu(I), G(I), ..., the generator of docs/closures.md); every other module is a
+#: closure module.
+INFRASTRUCTURE = ("base", "derive", "docs", "functions")
 
 
 def discover(paths: Iterable[str] = ()) -> list[str]:

@@ -1,6 +1,6 @@
 """Up-front memory estimate of a run: a grid that fits under :data:`granflow.config.MAX_CELLS`
 may still not fit in the machine (``2000 x 2000`` cells died with a MemoryError after 40 s), so
-:class:`granflow.cases.runner.CaseRun` refuses a grid whose estimate exceeds the memory available,
+:class:`granflow.casekit.runner.CaseRun` refuses a grid whose estimate exceeds the memory available,
 naming both, before anything is computed. The limit is the memory available, or the environment
 variable :data:`MEMORY_LIMIT_ENV` (in GB) where it is set: lower it on a shared machine, raise it to
 run past the estimate.
@@ -92,6 +92,6 @@ def check_memory(config, available: int | None = None) -> None:
     if have is not None and need > have:
         raise GranflowInputError(
             f"grid: nx * nz = {g.nx} * {g.nz} = {cells} cells need about {need / BYTES_PER_GB:.3g} GB "
-            f"(estimate: {BYTES_PER_CELL / 1e3:g} kB per cell, granflow.cases.memory), more than "
+            f"(estimate: {BYTES_PER_CELL / 1e3:g} kB per cell, granflow.casekit.memory), more than "
             f"the {have / BYTES_PER_GB:.3g} GB {source}; reduce grid.nx or grid.nz (or set "
             f"{MEMORY_LIMIT_ENV} to a limit in GB)")

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from granflow.cases.common import make_model, packing, rectangle_fraction
+from granflow.casekit.common import make_model, packing, rectangle_fraction
 from granflow.config import MAX_STEPS, CaseConfig, GasSection, GridSection, WallsSection
 from granflow.errors import GranflowInputError
 from granflow.grid import MIN_CELLS
@@ -318,7 +318,7 @@ def granular_speed(model: Model, state: State) -> float:
 
 
 def model_with_injection(config: CaseConfig, U_inj) -> Model:
-    """:func:`granflow.cases.common.make_model` of ``config`` with the base injection ``U_inj``
+    """:func:`granflow.casekit.common.make_model` of ``config`` with the base injection ``U_inj``
     [m s^-1] (a scalar, or one value per column), whatever ``gas.U_inj`` says."""
     return make_model(config, U_inj=U_inj)
 

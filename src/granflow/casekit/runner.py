@@ -38,15 +38,15 @@ from typing import Any
 import numpy as np
 
 from granflow import diagnostics as dg
-from granflow.cases.memory import check_memory
-from granflow.cases.registry import CASES
-from granflow.cases.restart import (
+from granflow.casekit.memory import check_memory
+from granflow.cases import CASES  # the package: importing it registers the cases
+from granflow.casekit.restart import (
     CHECKPOINT_DIR,
     check_checkpoint,
     check_resume_output,
     resolve_checkpoint,
 )
-from granflow.cases.step_clock import StepClock
+from granflow.casekit.step_clock import StepClock
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.output import load_checkpoint, write_json_atomic
@@ -118,7 +118,7 @@ class Progress:
     eta_s: float
     wall_s: float
     warming_up: bool = False
-    """True while the kernels compile (:mod:`granflow.cases.step_clock`): no rate, no ETA."""
+    """True while the kernels compile (:mod:`granflow.casekit.step_clock`): no rate, no ETA."""
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Rate and ETA of a run for its progress display (:class:`granflow.cases.runner.CaseRun`), measured
+"""Rate and ETA of a run for its progress display (:class:`granflow.casekit.runner.CaseRun`), measured
 only over steps that compile nothing.
 
 The first steps of a session compile the Numba kernels, and not all in the first step: measured

@@ -49,7 +49,7 @@ def validate_member(config: Mapping[str, Any]) -> CaseConfig:
     GranflowInputError
         Every problem, each naming its key path (see :meth:`CaseConfig.from_dict`).
     """
-    from granflow.cases.memory import check_memory
+    from granflow.casekit.memory import check_memory
 
     cfg = CaseConfig.from_dict(config)
     check_memory(cfg)
@@ -134,7 +134,7 @@ def run_member(config: dict[str, Any], outdir: Path) -> dict[str, Any]:
         The run stopped before its stop time (a step failed after every dt halving, or it was
         interrupted); its output, checkpoint and ``run/summary.json`` are kept.
     """
-    from granflow.cases.runner import CaseRun
+    from granflow.casekit.runner import CaseRun
 
     validate_member(config)  # a clear error before anything is written
     run_dir = Path(outdir) / RUN_SUBDIR

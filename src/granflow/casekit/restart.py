@@ -1,5 +1,5 @@
 """Checks of a ``--restart`` checkpoint before anything is written (used by
-:class:`granflow.cases.runner.CaseRun`).
+:class:`granflow.casekit.runner.CaseRun`).
 
 A checkpoint continues a run only if it is one of the same physics: the case name, the grid and
 the :data:`PHYSICS_SECTIONS` of its effective configuration (``meta["config_effective"]``) must
