@@ -27,7 +27,8 @@ QUICK_TESTED_ELSEWHERE = {"validation/basilisk_column/run.py": "test_basilisk_co
 
 
 def test_the_script_list_is_complete():
-    assert len(SCRIPTS) == 12 and "validation/fluidised_vs_dry/convergence.py" in SCRIPTS
+    assert len(SCRIPTS) == 13 and "validation/fluidised_vs_dry/convergence.py" in SCRIPTS
+    assert "validation/roche/run.py" in SCRIPTS
 
 
 @pytest.mark.parametrize("rel", SCRIPTS)

@@ -52,6 +52,17 @@ def config(ratio: float, H0: float, nz: int, ncol: int, dt_max: float, max_time:
         "time": {"stop_time": 0.003, "dt_max": dt_max}})
 
 
+def run(resolution: str, quick: bool = False, ratio: float = 1.3) -> dict:
+    """One row of the table: the bed ``resolution`` (a key of :data:`BEDS`: "small" or "example",
+    which fixes its cells) prepared at U = ``ratio`` U_mf (``quick`` changes nothing: the quick
+    table is the one row small at 1.3)."""
+    d = prep.prepare(config(ratio, *BEDS[resolution])).diagnostics()
+    return {"bed": resolution, "U_over_Umf": ratio, **{k: d[k] for k in (
+        "prep_phi_expected", "prep_phi_mean", "prep_phi_error", "prep_steady", "prep_time_s",
+        "prep_expansion_time_s", "prep_max_speed_m_s", "prep_height_drift_m_s", "prep_pf_rate_Pa_s",
+        "prep_bed_height_m", "prep_wall_s")}}
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     """Run the table (module docstring); returns its rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -60,11 +71,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     runs = [("small", 1.3)] if args.quick else [(b, r) for b in BEDS for r in RATIOS]
     rows = []
     for bed, ratio in runs:
-        d = prep.prepare(config(ratio, *BEDS[bed])).diagnostics()
-        row = {"bed": bed, "U_over_Umf": ratio, **{k: d[k] for k in (
-            "prep_phi_expected", "prep_phi_mean", "prep_phi_error", "prep_steady", "prep_time_s",
-            "prep_expansion_time_s", "prep_max_speed_m_s", "prep_height_drift_m_s", "prep_pf_rate_Pa_s",
-            "prep_bed_height_m", "prep_wall_s")}}
+        row = run(bed, quick=args.quick, ratio=ratio)
         rows.append(row)
         print(f"{bed:8s} U/U_mf = {ratio}: analytic phi {row['prep_phi_expected']:.5f}, granflow "
               f"{row['prep_phi_mean']:.5f} ({100 * row['prep_phi_error']:+.2f} %), steady "
