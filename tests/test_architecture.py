@@ -19,8 +19,9 @@ import ast
 from pathlib import Path
 
 import pytest
+from _scripts import ROOT  # the repository (tests/ holds tiers)
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "granflow"
+SRC = ROOT / "src" / "granflow"
 CORE = ("grid", "operators", "solvers", "physics", "rheology", "model", "state", "step", "simulation",
         "schedules")
 TOP = ("cases", "cli", "plotting", "closure_figures", "case_figures", "sweep", "sweep_spec", "sweep_files")

@@ -21,7 +21,7 @@ from granflow.output.integrity import check_complete
 from granflow.output.paths import check_directory, check_file
 from granflow.safe_toml import MAX_NESTING, loads, loads_value
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
 TINY = ["--set", "grid.nx=10", "--set", "grid.nz=6", "--set", "time.stop_time=0.004",
         "--set", "output.figures=false", "--quiet"]

@@ -1,15 +1,15 @@
 """Common numerics options reach the Model of every case (review findings of session 2)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
 from granflow.cases.registry import CASES
 from granflow.config import load_case
 from granflow.errors import GranflowInputError
+from _scripts import ROOT  # the repository (tests/ holds tiers)
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = ROOT / "examples"
 OPTIONS = ["numerics.isochoric_interface=0", "numerics.gravity_blend_velocity=0.5",
            "numerics.ambient.eta_b=0.1", "numerics.linear_solver=amg"]
 

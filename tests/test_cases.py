@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +16,7 @@ from granflow.config import CaseConfig
 from granflow.grid import VelocityBC
 from granflow.simulation import Simulation
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 SMALL = {"grid": {"nx": 16, "nz": 6, "Lx": 0.4, "Lz": 0.15}, "time": {"stop_time": 0.003}}
 STEPS = 3
 

@@ -23,7 +23,7 @@ from granflow.cli import ExitCode, main
 from granflow.errors import GranflowInputError
 from granflow.output import ordered
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLES = ROOT / "examples"
 FLUIDISED = EXAMPLES / "column_collapse_fluidised.toml"
 NX, NZ = 16, 6

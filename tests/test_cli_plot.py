@@ -19,7 +19,7 @@ import pytest
 from granflow.cli import ExitCode, main
 from granflow.output import ordered
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 GIF_MAGIC = (b"GIF87a", b"GIF89a")

@@ -24,7 +24,7 @@ import pytest
 from granflow.cli import ExitCode, main
 from granflow.output import ordered
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 NX, NZ, LX, LZ = 16, 6, 0.4, 0.15
 PHI_MAX = 0.6
 PHI_C = 0.3  # numerics.ambient.phi_c default: grains vs ambient

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from _scripts import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 
 
 def test_options_reference_is_current():

@@ -26,7 +26,7 @@ import pytest
 
 from granflow.config import EXTRA_SET_ENV
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 DOCS_ORDER = ["README.md", "docs/cases.md", "docs/sweeps.md", "docs/theory.md"]
 """Files whose commands build on each other, in reading order; other docs pages follow."""
 SMALL = ";".join([

@@ -9,7 +9,7 @@ import xarray as xr
 
 from granflow.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_fluidised.toml"
 TINY = ["--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "grid.Lx=0.4", "--set", "output.interval=0.01", "--set",
         "time.stop_time=0.02", "--set", "output.figures=false", "--quiet"]

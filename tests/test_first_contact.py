@@ -20,7 +20,7 @@ from granflow.cli import ExitCode, main
 from granflow.config import load_case
 from granflow.output import ordered
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLES = ROOT / "examples"
 TINY = ["--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "output.figures=false"]
 

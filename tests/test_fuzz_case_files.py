@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import random
 import tomllib
-from pathlib import Path
 
 import pytest
 
 from granflow.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 BASE_TEXT = (ROOT / "examples" / "column_collapse_dry.toml").read_text()
 BASE = tomllib.loads(BASE_TEXT)
 N_CASES = 220

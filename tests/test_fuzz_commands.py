@@ -24,7 +24,7 @@ import pytest
 from granflow.cli import main
 from granflow.output import load_checkpoint, save_checkpoint
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE_TEXT = (ROOT / "examples" / "column_collapse_dry.toml").read_text()
 TINY = ["--set", "grid.nx=10", "--set", "grid.nz=6", "--set", "time.stop_time=0.004",
         "--set", "output.interval=0.002", "--set", "output.figures=false", "--quiet"]

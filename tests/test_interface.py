@@ -24,6 +24,7 @@ from granflow.grid import Grid
 from granflow.model import Model
 from granflow.rheology import make_closure
 from granflow.simulation import Simulation, TimeInterval
+from _scripts import ROOT  # the repository (tests/ holds tiers)
 
 PHI_MAX = 0.6
 
@@ -96,11 +97,10 @@ def test_run_ends_once_at_rest(tmp_path):
     stayed below ``output.rest_speed`` (here 1e-2 m/s) for that long (measured: rest at
     t = 0.425 s, end at 0.475 s instead of stop_time = 1 s)."""
     import json
-    from pathlib import Path
 
     from granflow.cli import main
 
-    example = Path(__file__).resolve().parents[1] / "examples" / "column_collapse_dry.toml"
+    example = ROOT / "examples" / "column_collapse_dry.toml"
     small = ["setup.H0=0.05", "setup.L0=0.05", "grid.Lx=0.2", "grid.Lz=0.075", "grid.nx=20",
              "grid.nz=8", "time.stop_time=1.0", "time.stop_at_rest=0.05", "output.rest_speed=0.01"]
     out = tmp_path / "run"

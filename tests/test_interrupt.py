@@ -7,11 +7,10 @@ import os
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
 # The console script's body, with a line on stdout once ``main`` has entered its ``try`` (printed
 # from build_parser, its first call): the signal is sent after it, so it cannot land before

@@ -29,7 +29,7 @@ from granflow.config import load_case
 from granflow.errors import GranflowInputError
 from granflow.verification import defluidisation as dfl
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLES = ROOT / "examples"
 G = 9.81
 

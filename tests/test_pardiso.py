@@ -14,7 +14,6 @@ import os
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,7 +29,7 @@ from granflow.state import State
 
 pytestmark = pytest.mark.skipif(not pardiso_available(), reason="pypardiso / MKL not installed")
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 
 PHI_MAX = 0.6
 MATERIAL = dict(d=70e-6, rho_s=2500.0, phi_max=PHI_MAX)

@@ -5,7 +5,6 @@ and ``granflow stability dispersion --plot`` -- passes :func:`_figure_checks.fig
 checks themselves catch the faults the issue reported."""
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,10 +13,9 @@ import pytest
 from granflow.cli import ExitCode, main
 from granflow.config import load_case
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _figure_checks import figure_problems  # noqa: E402
+from _figure_checks import figure_problems  # noqa: E402  (tests/, on sys.path: tests/conftest.py)
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLES = ROOT / "examples"
 SMALL = {  # per case: a grid and a duration that keep each run to a few seconds
     "column_collapse": ["grid.nx=24", "grid.nz=9", "time.stop_time=0.15"],

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import netCDF4
 import numpy as np
@@ -27,7 +26,7 @@ from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.output import ordered
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_injected.toml"
 
 D = 70e-6           # grain diameter [m]

@@ -3,7 +3,6 @@ output.nc, checked against the recorded fields themselves and against the initia
 pressure (p_f0 = b0 p_lith, the initial state of case column_collapse)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,8 +11,9 @@ import xarray as xr
 from granflow.cli import main
 from granflow.config import load_case
 from granflow.errors import GranflowInputError
+from _scripts import ROOT  # the repository (tests/ holds tiers)
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "column_collapse_fluidised.toml"
+EXAMPLE = ROOT / "examples" / "column_collapse_fluidised.toml"
 TINY = ["grid.nx=16", "grid.nz=6", "grid.Lx=0.4", "time.stop_time=0.02", "output.interval=0.01"]  # the 0.4 m box the
 # expected values below are computed for (the example itself is 0.5 m long)
 

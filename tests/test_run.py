@@ -24,7 +24,7 @@ from granflow.cli.run import RunExit
 from granflow.output import load_checkpoint
 from granflow.simulation import IterationInterval
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
 TINY = ["--set", "grid.nx=16", "--set", "grid.nz=6", "--set", "output.interval=0.01", "--quiet"]
 REQUIRED_SUMMARY_KEYS = {"runout_m", "front_position", "final_height_at_wall", "t_rest", "mass_rel_error",

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,7 +21,6 @@ from scipy.optimize import brentq
 
 from granflow.cli import main as cli_main
 
-ROOT = Path(__file__).resolve().parents[1]
 A = 1.42
 MU_S, DELTA_MU, I0 = 0.32, 0.28, 0.4
 """Lagree et al. (2011) mu(I) parameters (c_I = 2)."""

@@ -10,13 +10,11 @@ must hold the column's H0 L0 at phi0 = phi_max); the published planar band lambd
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 from _scripts import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
 TINY_A = 1.0
 TINY_N = (6.0, 6.0 * math.sqrt(2.0))
 """Cells over H0 of the CI series (dx = 16.7 and 11.8 mm; the validation starts at 14)."""

@@ -20,12 +20,10 @@ surface): :func:`test_v2_default_budget`.
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 from _scripts import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
 T_END = 0.15
 """[s]: the bulk still moves (it stops at ~0.45 s)."""
 LZ = 0.16

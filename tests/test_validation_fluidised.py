@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,7 +27,7 @@ from granflow.cases import CASES
 from granflow.config import load_case
 from granflow.verification import defluidisation as dfl
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLES = ROOT / "examples"
 SMOKE_GRID = ("grid.nx=16", "grid.nz=6", "time.stop_time=0.2", "output.probes_x=[]")
 """16 x 6 cells of 2.5 cm on the examples' 0.4 x 0.15 m box, 0.2 s of flow (~1.5 s per run)."""

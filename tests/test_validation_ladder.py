@@ -13,7 +13,6 @@ References, never produced by the code under test:
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,7 +26,6 @@ from granflow.physics.dilatancy import (
 )
 from granflow.rheology import make_closure
 
-ROOT = Path(__file__).resolve().parents[1]
 P, S = 1000.0, 200.0            # the validation's imposed pressure [Pa] and |S| [1/s]
 D, RHO_S, PHI_MAX, DELTA_PHI, C_I = 8e-5, 2500.0, 0.6, 0.2, 2.0   # closure defaults
 SIN_DELTA = math.sin(math.radians(25.0))                            # drucker_prager default

@@ -13,7 +13,7 @@ import pytest
 
 from _scripts import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 
 
 def _load(rel: str):

@@ -3,7 +3,6 @@ warnings and ``wall_contact``, output.nc flags; a layer that fills the box is no
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import netCDF4
 import numpy as np
@@ -11,7 +10,7 @@ import numpy as np
 from granflow.output.wall_contact import WallWatch
 from granflow.cli import ExitCode, main
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 
 
 def test_watch_reports_new_contacts_once_and_ignores_the_initial_ones():
