@@ -1,4 +1,4 @@
-"""Issue 17: the checks behind the fuzz test (tests/test_fuzz_commands.py) that need more than
+"""Issue 17: the checks behind the fuzz test (tests/integration/test_fuzz_commands.py) that need more than
 "exit 2, one line": what they still accept, what they print, and the parts a fuzzed input cannot
 reach (a warning during a run, an unreachable scheduler, the memory estimate, truncated files of
 every classic NetCDF format)."""

@@ -85,7 +85,7 @@ def test_column_initial_pressure_is_lithostatic():
 
 def test_static_layer_case_keeps_rest_and_lithostatic_pressure(tmp_path, capsys):
     """The example file through the CLI: 7 whole cells of phi_max, mu(I), 50 steps. Bounds as in
-    tests/test_solver_dry.py: |p - phi rho_s g (H - z)| <= 1e-9 max p in the layer (solver
+    tests/integration/test_solver_dry.py: |p - phi rho_s g (H - z)| <= 1e-9 max p in the layer (solver
     round-off), speeds <= 1e-3 eps H (the exact discrete solution is at rest)."""
     out = tmp_path / "static"
     code = main(["run", str(ROOT / "examples" / "static_layer.toml"), "--out", str(out), "--quiet"])

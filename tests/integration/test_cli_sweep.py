@@ -4,7 +4,7 @@ time, and the re-run that skips finished members.
 
 The base case is a fluidised column collapse (the flagship example's physics) on a 16 x 6 grid
 for 0.02 s (20 steps of 1 ms). The member that fails gets a Picard tolerance no step can meet
-(``max_sweeps = 1``, ``fail_tol = 1e-12``; see tests/test_run.py). Independent checks: the front
+(``max_sweeps = 1``, ``fail_tol = 1e-12``; see tests/integration/test_run.py). Independent checks: the front
 and run-out recomputed here from each member's NetCDF phi (deposit thickness
 sum(phi dz)/phi_max > one cell height, right edge of the furthest such column; NUMERICS.md §10),
 exact to 1e-12 m; the initial pore pressure ratio p_f/(p + p_f) = b0 in the grains of record 0

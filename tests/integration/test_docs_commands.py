@@ -36,8 +36,8 @@ SMALL = ";".join([
     "column_collapse:output.interval=0.05",
     "lagree_column:grid.nx=16", "lagree_column:grid.nz=16", "lagree_column:time.stop_time=0.5",
     # the verification examples on their own grids, for part of their time (as in
-    # tests/test_plotting.py; what they show is checked in tests/test_ladder_cases.py and
-    # tests/test_inclined_plane.py): 12 s and 20 s of inclined layer were a fifth of this test
+    # tests/integration/test_plotting.py; what they show is checked in tests/integration/test_ladder_cases.py and
+    # tests/integration/test_inclined_plane.py): 12 s and 20 s of inclined layer were a fifth of this test
     "inclined_layer:time.stop_time=2.0", "defluidisation_column:time.stop_time=0.05",
     "sheared_layer:time.stop_time=5e-4"])
 BASH_BLOCK = re.compile(r"^```bash\n(.*?)^```", re.S | re.M)

@@ -4,13 +4,13 @@ checked against an independent reference, plus one bad input per case.
 
 References (never numbers produced by the code under test):
 * defluidising column: the Fourier series of granflow.verification.defluidisation (checked against
-  quadrature and the PDE in tests/test_pore_pressure.py) with the diffusivity
+  quadrature and the PDE in tests/integration/test_pore_pressure.py) with the diffusivity
   D = p_atm kappa/(1 - phi), kappa = d^2 (1 - phi)^3/(150 eta_f phi^2) written here (paper eq. beta),
   and the basal half-life 0.4854 tau_1 of MODEL.md §7;
 * sheared layer: the logistic solution of dphi/dt = beta phi (phi_eq - phi) written here from
   MODEL.md §7 / NUMERICS.md §11 item 2 (beta = 2 sin(delta) sqrt(p)/(c_I delta_phi d sqrt(rho_s)));
 * inclined layer: the Bagnold profile written here from MODEL.md §7 (as in
-  tests/test_inclined_plane.py): mu(I) = tan(theta)/(1 - beta),
+  tests/integration/test_inclined_plane.py): mu(I) = tan(theta)/(1 - beta),
   u_s = (4 I/(3 c_I d)) sqrt((1 - beta) phi g cos(theta)) h^(3/2).
 """
 from __future__ import annotations

@@ -125,7 +125,7 @@ def test_at_u_mf_the_basal_pore_pressure_reaches_lithostatic():
 
 def test_over_fluidised_preparation_stops_at_the_maximum_time_and_says_so():
     """U = 1.5 U_mf lifts and expands the bed for t_s = 1.40 s (the fluidisation front,
-    granflow.theory.fluidisation.expansion_time; tests/test_expansion.py); stopped at 0.04 s the
+    granflow.theory.fluidisation.expansion_time; tests/validation_smoke/test_expansion.py); stopped at 0.04 s the
     preparation ends at prep_max_time, never later, and reports steady = False with the bed rising
     (speed > 1e-6 m/s, measured 1.7e-3; basal p_f/lithostatic 1.14)."""
     result = prep.prepare(config(U_prep_over_Umf=1.5, prep_max_time=0.04))

@@ -64,7 +64,7 @@ def test_amg_path_reports_krylov_iterations():
 
 @pytest.mark.parametrize(("nx", "nz", "expected"), [(40, 15, "direct"), (120, 60, "amg")])
 def test_auto_picks_the_solver_by_size(nx, nz, expected, monkeypatch):
-    """Without the optional PARDISO (tests/test_pardiso.py covers "auto" with it)."""
+    """Without the optional PARDISO (tests/integration/test_pardiso.py covers "auto" with it)."""
     monkeypatch.setattr(gm, "pardiso_available", lambda: False)
     g = Grid(nx=nx, nz=nz, Lx=0.4, Lz=0.15)
     unknowns = g.n_unknowns + g.n_cells

@@ -42,7 +42,7 @@ def _values(law) -> dict:
 def _paper_phi_eq(name: str, law) -> sp.Expr:
     """phi_eq(I) as printed in the paper, with the law's parameter values."""
     if name not in _SYMBOLIC:
-        pytest.fail(f"equilibrium law {name!r} has no reference in tests/test_equilibrium.py")
+        pytest.fail(f"equilibrium law {name!r} has no reference in tests/unit/test_equilibrium.py")
     return _SYMBOLIC[name].subs(_values(law))
 
 

@@ -210,7 +210,7 @@ def test_erratum4_robinson_negative_yield_at_small_I():
 def test_erratum5_plain_dp_marginal_and_viscosity_stabilises():
     """Item 5: plain DP has zero leading-order growth along the Coulomb direction sin 2theta = sin delta,
     and a viscous addition makes every direction strictly stable (max = -eta_visc/(2 phi rho_s), the
-    closed form of the isotropic viscous block). Detailed tests: tests/test_dispersion.py."""
+    closed form of the isotropic viscous block). Detailed tests: tests/unit/test_dispersion.py."""
     from granflow.theory.dispersion import leading_order_growth, leading_order_max_growth
 
     delta = np.radians(25.0)

@@ -5,7 +5,7 @@ named in their ``INFRASTRUCTURE`` tuple (:func:`granflow.registry.discover_modul
 
 * a closure written at test time into a temporary directory, handed to
   ``granflow.rheology.discover(paths=[...])``, is listed by ``CLOSURES``, passes the registry-wide
-  theory checks of tests/test_conditions.py and tests/test_closures.py, and drives a
+  theory checks of tests/unit/test_conditions.py and tests/unit/test_closures.py, and drives a
   :class:`granflow.model.Model` for a few steps;
 * a case written the same way is listed by ``CASES``, validated by ``granflow.config`` and set up;
 * every module of both packages is either a part module (it registers at least one part) or

@@ -8,7 +8,7 @@ References, none produced by the code under test:
   lambda_1 = 1.2-2.2 for a <~ 3 (MODEL.md §7);
 * the lithostatic pressure phi0 rho_s g (H0 - dz/2) of the bottom cell and the Fourier series of a
   static rigid column (granflow.verification.defluidisation, itself checked in
-  tests/test_pore_pressure.py);
+  tests/integration/test_pore_pressure.py);
 * the displaced solid fraction (solid beyond x = L0) is computed here from phi.
 
 The CI smoke test runs the example files at 16 x 6 cells to t = 0.2 s; the slow test reruns the

@@ -1,5 +1,5 @@
 """Verification ladder 9a (sheared layer) and 9e (static heap): what validation/sheared_layer and
-validation/heap claim beyond tests/test_dilatancy.py and tests/test_solver_dry.py, and smoke runs of
+validation/heap claim beyond tests/unit/test_dilatancy.py and tests/integration/test_solver_dry.py, and smoke runs of
 their scripts (STYLE.md idiom 11).
 
 References, never produced by the code under test:
@@ -132,7 +132,7 @@ def heap():
 
 def test_heap_creep_is_steady_and_proportional_to_eps_over_half_a_second(heap):
     """DP heap at 20 deg (delta = 26.7 deg), 20 x 10 cells with headroom above the crest, to 0.5 s
-    (10x the CI test of tests/test_solver_dry.py): the max speed of the granular faces is
+    (10x the CI test of tests/integration/test_solver_dry.py): the max speed of the granular faces is
     <= 1.5 eps h_top (measured 0.99 and 1.02 eps h_top), steady (v(0.5 s)/v(0.25 s) in [0.95, 1.05],
     measured 0.984 and 0.998) and proportional to eps (v(5e-3)/v(1e-3) in [4.5, 5.5], measured 4.82)."""
     rows = [heap.run(20, slope_deg=20.0, eps=e, t_end=0.5) for e in (5e-3, 1e-3)]
