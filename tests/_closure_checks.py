@@ -1,5 +1,5 @@
-"""Checks every closure of the registry must pass, shared by tests/test_conditions.py (looping over
-the registry) and tests/test_registry_discovery.py (a closure added at test time)."""
+"""Checks every closure of the registry must pass, shared by tests/unit/test_conditions.py (looping over
+the registry) and tests/unit/test_registry_discovery.py (a closure added at test time)."""
 import numpy as np
 
 from granflow.theory import conditions as cond

@@ -15,6 +15,14 @@ library measure the library's error only.
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
+
+# The tests are in tiers (tests/unit, tests/integration, tests/validation_smoke); the shared helpers
+# (_scripts, _closure_checks, _figure_checks) stay here, importable from every tier.
+TESTS = Path(__file__).resolve().parent
+if str(TESTS) not in sys.path:
+    sys.path.insert(0, str(TESTS))
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cache, cached_property

@@ -155,7 +155,7 @@ def alias_modules(package: str, targets: dict[str, str]) -> None:
     package is ignored).
 
     ``granflow.cases`` does so for the modules it moved to ``granflow.casekit``
-    (tests/test_casekit_aliases.py).
+    (tests/unit/test_casekit_aliases.py).
     """
     import sys
 

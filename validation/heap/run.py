@@ -5,7 +5,7 @@ Verification item 9e of issue 3 (NUMERICS.md §11 item 4, §4). A wedge of glass
 (d = 70 um, rho_s = 2500 kg/m^3, phi_max = 0.6) against the free-slip west wall (a symmetry plane:
 a symmetric heap of width 0.4 m) on a 2 cm layer, no-slip base, in a 0.2 m x 0.1 m box, surface
 z = max(h_top - x tan(theta), 2 cm) with h_top = 8.5 cm (7 cm for theta <= 16 deg), as in
-tests/test_solver_dry.py but with headroom: the CI test's box is 8 cm tall, so its crest column
+tests/integration/test_solver_dry.py but with headroom: the CI test's box is 8 cm tall, so its crest column
 touches the free-slip lid (run here as the "CI box" row). Cells cut by the surface hold the
 covered fraction of phi_max. Closures: Drucker-Prager with sin(delta) = 0.45 (delta = 26.74 deg)
 at theta = 20 and 23 deg, mu(I) (mu1 = tan 21 deg) at theta = 15 deg.

@@ -5,7 +5,7 @@ of thickness h0 = 1 cm on a grid periodic in x (4 columns of 25 cm: the flow is 
 extent only sets the advective CFL), no-slip base, pressureless ambient above (2-3 cells), gravity
 g (sin theta, -cos theta), mu(I) closure with its dilatancy law (mu1 = tan 21 deg, mu2 = tan 33 deg,
 I0 = 0.3; phi_eq = phi_max - delta_phi I, phi_max = 0.6, delta_phi = 0.2; d = 0.5 mm,
-rho_s = 2500 kg/m^3). Exact steady state (derived in tests/test_inclined_plane.py):
+rho_s = 2500 kg/m^3). Exact steady state (derived in tests/integration/test_inclined_plane.py):
 
     mu(I_theta) = tan(theta) / (1 - beta),   phi = phi_eq(I_theta),
     p = (1 - beta) phi rho_s g cos(theta) (h - z),
@@ -16,7 +16,7 @@ with beta = 0 for the dry layer (theta = 25 deg) and beta = 0.15 for the fluidis
 the bed surface, so p_f = beta x lithostatic). The runs start from the exact state (cell-aligned
 surface) and are integrated with granflow.simulation.Simulation (dt <= 0.05 s, CFL 0.3) to
 t = 20 s (relaxation time ~2 s). The surface velocity is the u of the top row of x-faces (the
-stress-free ambient moves with the surface). Model options: see tests/test_inclined_plane.py and
+stress-free ambient moves with the surface). Model options: see tests/integration/test_inclined_plane.py and
 the README (their effect is measured by ``--options``).
 
 Run:   python validation/inclined_plane/run.py [--quick] [--options]

@@ -14,7 +14,7 @@ closed, linear gas law, Drucker-Prager closure). Compared, for each U/U_mf:
   docs/cases.md), the largest granular speed at the end;
 
 on two beds: "small" (H0 = 2 cm, 20 cells over the bed, reservoir 2 cells wide; the slow test of
-tests/test_expansion.py) and "example" (H0 = 10 cm, 1 cm cells, reservoir 10 cells wide: the
+tests/validation_smoke/test_expansion.py) and "example" (H0 = 10 cm, 1 cm cells, reservoir 10 cells wide: the
 geometry of examples/column_collapse_injected.toml), the latter run to 6 s (t_s ~ 3.5 s).
 
 Run:   python validation/roche/run.py [--quick]

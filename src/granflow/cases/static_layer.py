@@ -4,7 +4,7 @@ The layer ``0 <= z <= H`` fills the whole box width at packing ``phi0``. With a 
 (or any slope below the friction angle) the exact solution is rest with the lithostatic
 pressure ``p = phi0 rho_s g cos(slope) (H - z)``, which the discrete scheme reproduces exactly in
 every completely filled cell below a completely filled top cell (telescoping sum of the discrete
-hydrostatic balance; tests/test_solver_dry.py). ``summary.json`` reports the largest speed, the
+hydrostatic balance; tests/integration/test_solver_dry.py). ``summary.json`` reports the largest speed, the
 largest relative deviation from that pressure over the filled cells and the pressure profile
 (``pressure_profile``, drawn in ``pressure.png``).
 """

@@ -7,7 +7,7 @@ partial cells, the outflow limiter for ``c >= 0``, the upwind MUSCL-minmod packi
 ``psi_f F_c`` (slopes between material cells), the outflow limiter for ``phi >= 0`` and the
 upper-bound limiter for ``phi <= phi_max`` -- written as loops over faces and cells with the same
 floating-point operations in the same order, so the fluxes agree bit for bit
-(tests/test_material_kernel.py). Why: the consistent momentum transport needs the solid fluxes at
+(tests/unit/test_material_kernel.py). Why: the consistent momentum transport needs the solid fluxes at
 every Picard sweep (:func:`granflow.physics.material.material_solid_fluxes`); in NumPy they were
 ~8 % of the Lagree column's v2 CPU time at 128^2 (benchmarks/README.md).
 

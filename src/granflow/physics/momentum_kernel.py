@@ -6,7 +6,7 @@ The same scheme as the NumPy reference
 :func:`granflow.physics.momentum_transport._divergence_numpy` (module docstring there: the dual
 mass fluxes, the upwind MUSCL face values with the generalised minmod slope) written as loops over
 the dual faces, with the same floating-point operations in the same order, so the two agree bit
-for bit (tests/test_momentum_kernel.py). Why: the consistent transport evaluates it at every Picard
+for bit (tests/unit/test_momentum_kernel.py). Why: the consistent transport evaluates it at every Picard
 sweep; in NumPy (about 30 whole-array temporaries per call) it was ~6 % of the Lagree column's v2
 CPU time at 128^2 (benchmarks/README.md).
 

@@ -36,7 +36,7 @@ which vanishes for centred face values and is the upwinding's numerical dissipat
 
 The divergence is a compiled loop when Numba is installed
 (:mod:`granflow.physics.momentum_kernel`), else the NumPy reference :func:`_divergence_numpy`
-(whole-array operations); the two agree bit for bit (tests/test_momentum_kernel.py).
+(whole-array operations); the two agree bit for bit (tests/unit/test_momentum_kernel.py).
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ The same scheme as the NumPy reference :func:`granflow.physics.transport.advect_
 syst1b; MUSCL-minmod face values, SSP-RK2, the upper-bound flux limiter of
 :func:`~granflow.physics.transport.limit_to_upper_bound` in each stage), written as loops over
 faces and cells with the same floating-point operations in the same order, so the two agree to
-round-off (tests/test_transport_kernel.py: identical fields on the cases tested). Why: at the
+round-off (tests/unit/test_transport_kernel.py: identical fields on the cases tested). Why: at the
 Lagree column's 128^2 the NumPy step took 1.7 ms (two per time step, one for the
 energy-consistent gravity weight), 10-15 % of the whole step once the linear systems were cut to
 the velocity band; the kernel takes ~0.2 ms (benchmarks/README.md).

@@ -2,7 +2,7 @@
 law with its options, defaults and units (:func:`closures_markdown`).
 
 Regenerate: ``python -m granflow.rheology.docs docs/closures.md`` (or ``python docs/make_reference.py``);
-tests/test_closures_page.py fails while the committed page differs from the generated text.
+tests/unit/test_closures_page.py fails while the committed page differs from the generated text.
 """
 from __future__ import annotations
 
@@ -59,12 +59,12 @@ def closures_markdown() -> str:
         "`granflow.rheology` imports every module of its package (found by `pkgutil.iter_modules`)",
         "except the private ones (`_name`) and the infrastructure modules named in",
         "`granflow.rheology.INFRASTRUCTURE` (" + ", ".join(f"`{m}`" for m in rheology.INFRASTRUCTURE) + "),",
-        "which hold no closure. The tests that loop over `CLOSURES` (tests/test_closures.py,",
-        "tests/test_conditions.py) then check the new closure; those comparing with the paper's",
+        "which hold no closure. The tests that loop over `CLOSURES` (tests/unit/test_closures.py,",
+        "tests/unit/test_conditions.py) then check the new closure; those comparing with the paper's",
         "formulas ask for its independent (Z, f) in `REFERENCES` of tests/conftest.py (written",
         "from the paper, on purpose not from the code), and this page lists it once regenerated.",
         "A helper module that defines no closure goes into `INFRASTRUCTURE`:",
-        "tests/test_registry_discovery.py fails for a module that is neither (a discovered module",
+        "tests/unit/test_registry_discovery.py fails for a module that is neither (a discovered module",
         "that registers nothing, or an infrastructure module that registers a closure).",
         "Closures kept outside the source tree: `granflow.rheology.discover(paths=[directory])`",
         "imports the modules of `directory` by the same rule, as `granflow.rheology.<module>`.",

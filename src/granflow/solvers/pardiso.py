@@ -19,7 +19,7 @@ diagonal (the Model's saddle systems; ~2x cheaper factorisation), else whole as 
 (type 11); scaling and weighted matching on. Systems below ``threaded_min_unknowns`` run on one
 thread (MKL's threads lose there, and collapse when another process shares the cores); the
 threaded ones use MKL's reproducibility mode. The result does not depend on the number of MKL
-threads (tests/test_pardiso.py).
+threads (tests/integration/test_pardiso.py).
 
 Note: PARDISO's phases are reached through ``pypardiso.PyPardisoSolver._call_pardiso`` (its
 public ``solve`` always re-analyses a new matrix), hence the pin ``pypardiso < 0.5``.
@@ -238,7 +238,7 @@ class PardisoSolver(LinearSolver):
             MKL's conditional numerical reproducibility (``iparm[33]``) for the threaded systems:
             with a value > 0 the result is bit-for-bit the same for every thread count
             (``MKL_NUM_THREADS``) up to it (measured: 1, 2, 3 threads with 4,
-            tests/test_pardiso.py), so a run and its restart agree on machines with other core
+            tests/integration/test_pardiso.py), so a run and its restart agree on machines with other core
             counts. Default 4; 0 = off. Costs ~15 % at 3e4 unknowns and ~40 % of analysis and
             solve at 3e3, which is why the single-threaded systems do without it (one thread is
             reproducible by construction).

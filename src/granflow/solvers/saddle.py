@@ -41,7 +41,7 @@ Solver (Elman, Silvester & Wathen 2014, ch. 9; Benzi, Golub & Liesen 2005):
      ``S^-1 ~ -[(C + Theta^1/2 B_l M_rho^-1 B_u Theta^1/2)^-1 + diag(1/(C + theta/(eta + gamma)))]``:
      one V-cycle on a Poisson + reaction matrix plus a diagonal. Measured: 14-27 iterations for
      every state (static layer 18, 20, 23; collapse onset 19, 21, 28; mid-collapse 18, 15, 15,
-     tests/test_linear_solvers.py; 10-14 with warm starts, benchmarks/linear_solvers.py);
+     tests/integration/test_linear_solvers.py; 10-14 with warm starts, benchmarks/linear_solvers.py);
    * ``CAHOUET_CHABARD`` (needs hints): for the generalised Stokes operator
      ``rho/dt - div(2 eta S_dev)`` the symbol of ``-B A^-1 B^T`` is ``k^2/(rho/dt + eta k^2)``, whose
      inverse is *additive*: ``S^-1 ~ (rho/dt)^-1-weighted Laplacian^-1 + eta M_p^-1`` (Cahouet &

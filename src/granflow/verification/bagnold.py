@@ -13,7 +13,7 @@ the weight, so ``mu(I_theta) = tan(theta)/(1 - beta)``; with mu(I) = mu1 + (mu2 
     u(z) = (4 I_theta/(3 c_I d)) sqrt((1 - beta) phi g cos(theta)) [h^(3/2) - (h - z)^(3/2)].
 
 The one definition used by the ``inclined_layer`` case (:mod:`granflow.cases.inclined_layer`) and
-validation/inclined_plane/run.py; tests/test_inclined_plane.py derives it independently and checks
+validation/inclined_plane/run.py; tests/integration/test_inclined_plane.py derives it independently and checks
 this module against its derivation. SI units, angles in rad.
 """
 from __future__ import annotations

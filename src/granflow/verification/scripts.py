@@ -7,7 +7,7 @@ tests/_scripts.py loads them the same way.
 The shape of a validation script (issue 18 item 5): ``run(resolution, quick=False)`` runs one level
 (``resolution`` is the script's level parameter: cells over the layer, an index into its list of
 levels, a time step, as its docstring says) and ``main(argv)`` parses ``--quick``, a smoke run of
-seconds that CI runs (tests/test_validation_*.py).
+seconds that CI runs (tests/validation_smoke/).
 """
 from __future__ import annotations
 
