@@ -8,7 +8,6 @@ import importlib.util
 import json
 import re
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,7 +17,7 @@ from granflow.cases import CASES
 from granflow.cli import main
 from granflow.config import load_case
 
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import ROOT  # noqa: E402  (the repository, whatever the tier folder)
 MODULE = ROOT / "examples" / "custom_case" / "mound.py"
 CASE_FILE = ROOT / "examples" / "custom_case" / "mound.toml"
 MODULE_NAME = "granflow_example_mound"
