@@ -45,7 +45,7 @@ def ddiv_rate_dphi(closure, phi, p, S):
     I = m.inertial_number(S, p)
     with np.errstate(all="ignore"):
         shear = np.where(S > 0, 2.0 * S * closure.dA_dphi(phi, I), 0.0)
-    dG = 2.0 * closure.dB_dphi(phi) / (m.c_I * m.d * np.sqrt(m.rho_s))
+    dG = 2.0 * closure.dB_dphi(phi) / m.inertial_scale
     return shear - dG * np.sqrt(np.maximum(p, 0.0))
 
 
