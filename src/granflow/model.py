@@ -85,6 +85,7 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
     DEFAULT_DELTA_P,
     DEFAULT_EPS,
     DEFAULT_GRAVITY,
+    DEFAULT_ISOCHORIC_INTERFACE,
     DEFAULT_PHI_TOLERANCE,
     INTERFACE_RADIUS,
     PHI_FLOOR,
@@ -220,7 +221,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                  advection: mom.Advection | str = mom.Advection.CONSISTENT,
                  gas: GasLaw | str | None = None, U_inj=0.0, open_top: bool = False,
                  linear_solver: LinearSolverChoice | str = LinearSolverChoice.DIRECT,
-                 isochoric_interface: int = 1, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
+                 isochoric_interface: int = DEFAULT_ISOCHORIC_INTERFACE, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
                  surface: Surface | str = Surface.INDICATOR,
                  base_friction: BaseFriction | str | None = None,
                  momentum_theta: float = mt.MC_THETA, gas_compressibility: str = "isothermal") -> None:
