@@ -44,3 +44,25 @@ def test_collapse_cut_by_the_east_wall_is_flagged(tmp_path, capsys):
     with netCDF4.Dataset(out / "output.nc") as ds:
         assert ds.getncattr("reached_east_wall") == 1 and ds.getncattr("reached_lid") == 0
         assert 0.0 < ds.getncattr("reached_east_wall_t") <= 0.3
+
+
+def test_wall_contact_survives_a_restart(tmp_path, capsys):
+    """Reached before the checkpoint (t = 0.14 s on this grid), the east wall is still flagged
+    after a restart: output.nc attributes, summary ``wall_contact`` and warning (the recorder's
+    checkpoint scalars ``walls.*``). Before they existed the restarted file had no flag."""
+    out = tmp_path / "run"
+    args = ["run", str(ROOT / "examples" / "column_collapse_dry.toml"), "--out", str(out), "--quiet",
+            "--set", "grid.nx=12", "--set", "grid.nz=6", "--set", "grid.Lx=0.15", "--set", "grid.Lz=0.15",
+            "--set", "output.figures=false"]
+    assert main(args + ["--set", "time.stop_time=0.2"]) == ExitCode.OK
+    first = json.loads((out / "summary.json").read_text())["wall_contact"]["east_wall"]
+    assert 0.0 < first <= 0.2
+    assert main(args + ["--set", "time.stop_time=0.3", "--restart", str(out)]) == ExitCode.OK
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["t_final"] == 0.3 or abs(summary["t_final"] - 0.3) < 1e-9
+    assert summary["wall_contact"]["east_wall"] == first
+    assert any("reached the east wall" in w for w in summary["warnings"])
+    with netCDF4.Dataset(out / "output.nc") as ds:
+        assert ds.getncattr("reached_east_wall") == 1
+        assert ds.getncattr("reached_east_wall_t") == first
+    capsys.readouterr()

@@ -31,7 +31,7 @@ from granflow import diagnostics as dg
 from granflow.errors import GranflowInputError
 from granflow.output.fields import SERIES_SPECS, Output, si_unit
 from granflow.output.netcdf import TIME_DIM, VariableSpec
-from granflow.output.wall_contact import WallWatch, warning_text
+from granflow.output.wall_contact import SIDES, WallWatch, warning_text
 from granflow.schedules import Schedule, check_schedule
 
 if TYPE_CHECKING:
@@ -190,6 +190,10 @@ class RestDetector:
         self.peak_speed = float(scalars[self.PEAK_KEY])
 
 
+NOT_REACHED = -1.0
+"""Checkpoint value of a wall-contact time that has not happened (times are >= 0) [s]."""
+
+
 class WallContactRecorder:
     """Grains reaching the east wall or the lid: a warning once per side, and the flags
     (:meth:`WallWatch.attributes`) in ``writer``'s file from its first record on.
@@ -215,6 +219,8 @@ class WallContactRecorder:
         self.warnings = warnings if warnings is not None else []
         self.watch: WallWatch | None = None
         self._last_t = -np.inf
+        self._rewrite = False
+        """Write the flags at the next record (a restart: the resumed file may lack them)."""
 
     def __call__(self, sim: Simulation) -> None:
         t = sim.state.t
@@ -223,15 +229,55 @@ class WallContactRecorder:
         self._last_t = t
         if self.watch is None:
             self.watch = WallWatch(sim.model.grid.periodic_x)
+        self.watch.periodic_x = sim.model.grid.periodic_x  # (a restored watch does not know it)
         new = self.watch.check(sim.state.phi, sim.model.material.phi_max, t)
         for side in new:
             _warn(self.warnings, warning_text(side, t, self.time_unit, self.length_key))
-        if new or self.writer.n_records == 0:  # the flags exist (0) from the first record on
+        if new or self.writer.n_records == 0 or self._rewrite:  # the flags exist from the first record on
             self.writer.set_attributes(self.watch.attributes())
+            self._rewrite = False
 
     def finalize(self, sim: Simulation, completed: bool) -> None:
         if completed:
             self(sim)
+
+    KEY = "walls"
+    """Prefix of the recorder's checkpoint scalars."""
+
+    def checkpoint_payload(self, sim: Simulation) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Scalars ``walls.first.<side>`` (first contact time [s], -1: not reached; checkpoint
+        scalars must be finite),
+        ``walls.initial.<side>`` (1: touched in the first record, never reported; -1: no record
+        checked yet) and ``walls.last_t``, so that a restart keeps the flags and warnings."""
+        scalars: dict[str, Any] = {f"{self.KEY}.last_t": float(self._last_t) if np.isfinite(self._last_t)
+                                   else NOT_REACHED}
+        for side in SIDES:
+            first = self.watch.first.get(side, NOT_REACHED) if self.watch is not None else NOT_REACHED
+            initial = (-1 if self.watch is None or self.watch.initial is None
+                       else int(side in self.watch.initial))
+            scalars[f"{self.KEY}.first.{side}"] = float(first)
+            scalars[f"{self.KEY}.initial.{side}"] = initial
+        return {}, scalars
+
+    def restore_checkpoint(self, arrays: Mapping[str, np.ndarray], scalars: Mapping[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_payload`: the contacts found before the checkpoint are
+        kept (and their warnings listed again, not logged again), and the next record writes the
+        flags into the resumed file. A checkpoint without these scalars (written before they
+        existed) starts a fresh watch."""
+        if f"{self.KEY}.last_t" not in scalars:
+            return
+        last = float(scalars[f"{self.KEY}.last_t"])
+        self._last_t = -np.inf if last == NOT_REACHED else last
+        if any(int(scalars[f"{self.KEY}.initial.{side}"]) < 0 for side in SIDES):
+            return  # no record had been checked: nothing to keep
+        self.watch = WallWatch(periodic_x=False)  # set from the grid at the next record
+        self.watch.initial = {side for side in SIDES if int(scalars[f"{self.KEY}.initial.{side}"]) == 1}
+        for side in SIDES:
+            t = float(scalars[f"{self.KEY}.first.{side}"])
+            if t != NOT_REACHED:
+                self.watch.first[side] = t
+                self.warnings.append(warning_text(side, t, self.time_unit, self.length_key))
+        self._rewrite = True
 
     @property
     def first(self) -> dict[str, float]:
