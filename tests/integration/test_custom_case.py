@@ -154,3 +154,27 @@ def test_a_wedge_slumps_above_the_friction_coefficient_and_stays_below(mound, tm
     else:
         assert summary["runout_m"] == 0.0
         assert np.abs(h[-1] - h[0]).max() < STILL_DH * dz
+
+
+def test_granflow_finds_an_outside_case_through_the_environment(tmp_path):
+    """GRANFLOW_CASES_PATH (granflow.cases.CASES_PATH_ENV) makes the installed command know the
+    example's case: ``list cases`` names it and ``run`` completes with mass conserved; a path that
+    is not a directory is refused with exit 2, naming the variable."""
+    import subprocess
+
+    from granflow.cases import CASES_PATH_ENV
+
+    env = {**__import__("os").environ, CASES_PATH_ENV: str(MODULE.parent)}
+    cmd = [sys.executable, "-c", "import sys; from granflow.cli import main; sys.exit(main())"]
+    listed = subprocess.run(cmd + ["list", "cases"], env=env, capture_output=True, text=True, timeout=120)
+    assert listed.returncode == 0 and "\nmound" in "\n" + listed.stdout
+    out = tmp_path / "run"
+    run = subprocess.run(cmd + ["run", str(CASE_FILE), "--out", str(out), "--quiet", "--set", "grid.nx=12",
+                                "--set", "grid.nz=4", "--set", "time.stop_time=0.05", "--set",
+                                "output.figures=false"], env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["case"] == "mound" and abs(summary["mass_rel_error"]) < 1e-12
+    bad = subprocess.run(cmd + ["list", "cases"], env={**env, CASES_PATH_ENV: str(tmp_path / "nope")},
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and CASES_PATH_ENV in bad.stderr and "Traceback" not in bad.stderr

@@ -8,10 +8,19 @@ docs/cases.md).
 >>> CASES.names()
 ['column_collapse', 'defluidisation_column', 'inclined_layer', 'lagree_column', 'sheared_layer', 'static_layer']
 """
+import os
 from collections.abc import Iterable
+from pathlib import Path
 
 from granflow.casekit.registry import CASES, Case, CaseRegistry
+from granflow.errors import GranflowInputError
 from granflow.registry import alias_modules, discover_modules
+
+CASES_PATH_ENV = "GRANFLOW_CASES_PATH"
+"""Environment variable: directories (separated by ``os.pathsep``, ":" on Linux) whose modules
+are case modules too, imported with granflow's own -- so that ``granflow run``, ``--restart``,
+``granflow list cases`` and the workers of ``granflow sweep`` (which inherit the environment)
+know a case kept outside the package (docs/cases.md, "Writing a new case in Python")."""
 
 MOVED = ("common", "headlines", "memory", "options", "preparation", "registry", "restart", "runner",
          "step_clock", "sweep_member")
@@ -29,6 +38,20 @@ def discover(paths: Iterable[str] = ()) -> list[str]:
     return discover_modules(__name__, __path__, paths=paths)
 
 
-discover()
+def environment_paths() -> list[str]:
+    """The directories of :data:`CASES_PATH_ENV` (empty entries skipped); a GranflowInputError
+    naming the variable for an entry that is not a directory."""
+    out = []
+    for entry in os.environ.get(CASES_PATH_ENV, "").split(os.pathsep):
+        if not entry.strip():
+            continue
+        folder = Path(entry).expanduser()
+        if not folder.is_dir():
+            raise GranflowInputError(f"{CASES_PATH_ENV}: {entry!r} is not a directory")
+        out.append(str(folder.resolve()))
+    return out
 
-__all__ = ["CASES", "MOVED", "Case", "CaseRegistry", "discover"]
+
+discover(environment_paths())
+
+__all__ = ["CASES", "CASES_PATH_ENV", "MOVED", "Case", "CaseRegistry", "discover", "environment_paths"]
