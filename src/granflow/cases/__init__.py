@@ -18,9 +18,9 @@ from granflow.registry import alias_modules, discover_modules
 
 CASES_PATH_ENV = "GRANFLOW_CASES_PATH"
 """Environment variable: directories (separated by ``os.pathsep``, ":" on Linux) whose modules
-are case modules too, imported with granflow's own -- so that ``granflow run``, ``--restart``,
-``granflow list cases`` and the workers of ``granflow sweep`` (which inherit the environment)
-know a case kept outside the package (docs/cases.md, "Writing a new case in Python")."""
+are case modules too, imported with granflow's own -- so that ``granflow run``, ``--restart`` and
+``granflow list cases`` (and the local workers of ``granflow sweep``, which inherit the
+environment) know a case kept outside the package (docs/cases.md, "Writing a new case in Python")."""
 
 MOVED = ("common", "headlines", "memory", "options", "preparation", "registry", "restart", "runner",
          "step_clock", "sweep_member")
