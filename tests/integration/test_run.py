@@ -125,19 +125,24 @@ def test_summary_has_the_required_keys_and_consistent_values(tiny_run):
 
 def test_progress_lines_when_not_on_a_terminal(tmp_path, capsys):
     code, _, err = run_cli(capsys, "run", EXAMPLE, "--out", tmp_path / "p", "--set", "grid.nx=16",
-                           "--set", "grid.nz=6", "--set", "time.stop_time=0.008",
+                           "--set", "grid.nz=6", "--set", "time.stop_time=0.016",
                            "--set", "output.log_interval=1e-9")
     assert code == RunExit.COMPLETED
     lines = [ln for ln in err.splitlines() if ln.startswith("granflow: t = ")]
-    assert len(lines) == 9  # before the first step, then one per step with a tiny log interval
+    assert len(lines) == 17  # before the first step, then one per step with a tiny log interval
+    # (16 steps: past the WARMUP_MAX_STEPS window plus MIN_TIMED_STEPS, so the last lines are timed)
     # the first steps compile the kernels: no ETA until 3 steps are timed after them (issue 16 item 7)
     from granflow.cases.step_clock import MIN_TIMED_STEPS
 
     warm = [ln for ln in lines if "compiling kernels (once)" in ln]
-    assert lines[:len(warm)] == warm and len(warm) >= 1 + MIN_TIMED_STEPS
+    # the first 1 + MIN_TIMED_STEPS lines warm up; a step of the first WARMUP_MAX_STEPS that is
+    # COMPILE_RATIO times slower than the next (a kernel first used later, or a stall of a shared
+    # machine: seen once in CI at step 5) restarts the warm-up, so warm lines may come back later
+    assert lines[:1 + MIN_TIMED_STEPS] == warm[:1 + MIN_TIMED_STEPS] and len(warm) >= 1 + MIN_TIMED_STEPS
     assert all("ETA" not in ln for ln in warm)
-    assert lines[len(warm):] and all("steps/s" in ln and "ETA" in ln and "dt = " in ln
-                                     for ln in lines[len(warm):])
+    timed = [ln for ln in lines if ln not in warm]
+    assert timed and lines[-1] in timed
+    assert all("steps/s" in ln and "ETA" in ln and "dt = " in ln for ln in timed)
 
 
 def test_existing_output_needs_overwrite_or_restart(tiny_run, capsys, tmp_path):
