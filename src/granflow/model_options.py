@@ -102,8 +102,9 @@ class BaseFriction(str, Enum):
     cell thick is half its weight's)."""
     WALL = "wall"
     """The same cells' viscosity evaluated at the pressure extrapolated to the wall
-    (:func:`granflow.physics.momentum.base_pressure`), so that the basal yield stress is
-    ``Z p_wall`` at any thickness (default with the indicator surface)."""
+    (:func:`granflow.physics.momentum.base_pressure`) and the wall's strain rate
+    (:meth:`granflow.operators.Operators.base_strain_rate_norm`), so that the basal stress is
+    ``Z(I_wall) p_wall`` at any thickness (default with the indicator surface)."""
 
 
 class AmbientParams(Params):

@@ -383,6 +383,23 @@ class Operators:
         vel = self._velocity(vel)
         return 0.25 * (self.ec @ vel) ** 2 + 0.25 * (self.node_to_cell @ (self.en @ vel) ** 2)
 
+    def base_strain_rate_norm(self, vel) -> np.ndarray:
+        """``|S|`` at the base of each bottom cell [s^-1], shape ``(nx,)``.
+
+        As :meth:`strain_rate_norm` but with ``S_xz^2`` averaged over the cell's two bottom
+        nodes only (on the wall), so that the base's shear stress ``2 eta S_xz`` of a viscosity
+        ``Z p / (2 |S|)`` evaluated at it is ``Z p`` in simple shear, whatever the profile
+        above: the centre's 4-node mean gives ``|S|`` half-way up the cell, ``1/sqrt(2)`` of the
+        wall's in a film one cell thick with a stress-free top (basal friction ``sqrt(2) Z p``).
+        Used by the ``"wall"`` base friction (:func:`granflow.step.base_node_viscosity`).
+        """
+        vel = self._velocity(vel)
+        g = self.grid
+        nx, nz = g.cell_shape
+        sxx2 = (0.25 * (self.ec @ vel) ** 2).reshape(nx, nz)[:, 0]
+        sxz2 = (0.25 * (self.en @ vel) ** 2).reshape(g.node_shape)[:, 0]
+        return np.sqrt(sxx2 + 0.5 * (sxz2[:-1] + sxz2[1:]))
+
     def strain_rate_norm(self, vel) -> np.ndarray:
         """``|S| = sqrt(S:S/2)`` at cell centres [s^-1], shape ``(n_cells,)``.
 

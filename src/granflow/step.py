@@ -265,15 +265,19 @@ def _solve(model, K, rhs, x0, hints, tim: dict, sweeps: int):
     return sol, its
 
 
-def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n) -> np.ndarray:
+def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n, vel=None) -> np.ndarray:
     """``eta_n`` with the nodes of a no-slip base re-evaluated at the wall pressure [Pa s].
 
     ``numerics.base_friction = "wall"`` (:class:`granflow.model_options.BaseFriction`): each base
     node takes the mean viscosity of the (one or two) bottom cells beside it, the closure evaluated
     at the cells' packing and strain rate but at the pressure extrapolated to the wall
     (:func:`granflow.physics.momentum.base_pressure`; the pore-pressure gradient of the first
-    interior z-face). The basal shear stress ``2 eta_n S_xz`` is then ``Z p_wall`` for a film of
-    any thickness, where the centre pressure gives half the weight of a one-cell layer.
+    interior z-face) and the strain rate at the wall (``vel`` given:
+    :meth:`granflow.operators.Operators.base_strain_rate_norm`, the cell's two base nodes; else the
+    cell's ``S``). The basal shear stress ``2 eta_n S_xz`` is then ``Z p_wall`` for a film of any
+    thickness, where the centre pressure gives half the weight of a one-cell layer and the centre
+    strain rate (the mean over the cell's four nodes) ``sqrt(2)`` times the friction of a film one
+    cell thick.
     """
     g = model.grid
     nx, nz = g.cell_shape
@@ -289,7 +293,10 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     base = base.ravel() & np.asarray(dense, dtype=bool).ravel()
     if not base.any():
         return eta_n
-    eta_wall = np.where(base, model.cell_viscosity(phi_e, p_wall.ravel(), S, base), eta_c)
+    S_wall = np.array(S, dtype=float).reshape(nx, nz)
+    if vel is not None:
+        S_wall[:, 0] = model.ops.base_strain_rate_norm(vel)
+    eta_wall = np.where(base, model.cell_viscosity(phi_e, p_wall.ravel(), S_wall.ravel(), base), eta_c)
     nodes, to_nodes = model.base_node_rows
     out = np.array(eta_n, dtype=float)
     out[nodes] = to_nodes @ eta_wall
@@ -332,7 +339,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         eta_c = coef.eta_c
         eta_n = ops.cell_to_node @ eta_c
         if model.base_friction is BaseFriction.WALL and model.ops.bcs.bottom is VelocityBC.NO_SLIP:
-            eta_n = base_node_viscosity(model, ex.phi_e, dense, p_eval, state.p_f, S_k, dt, coef.eta_c, eta_n)
+            eta_n = base_node_viscosity(model, ex.phi_e, dense, p_eval, state.p_f, S_k, dt, coef.eta_c, eta_n, vel=u_k)
         if ex.band_edge is not None:  # a stress-free band edge
             eta_c = np.where(ex.band_edge[0], 0.0, eta_c)
             eta_n = np.where(ex.band_edge[1], 0.0, eta_n)

@@ -77,6 +77,39 @@ def test_base_nodes_carry_the_whole_weight(n_material):
     assert np.array_equal(out.reshape(g.node_shape)[:, 1:], eta_n.reshape(g.node_shape)[:, 1:])
 
 
+@pytest.mark.parametrize("n_material", [0.3, 1.0, 2.5, 6.0])
+def test_base_shear_stress_is_the_yield_stress_at_the_wall(n_material):
+    """With the velocity (as the Picard sweep passes it) the base nodes' viscosity is evaluated at
+    the wall's own strain rate, ``|S_xz| = u_1 / dz`` with the no-slip ghost (``gamma/2`` of the
+    simple shear when the film covers the first velocity, ``gamma n`` for a film of n < 1/2
+    cell), so the basal stress ``2 eta S_xz`` is ``Z(I_wall) p_wall`` to the regularisation, for
+    any thickness; the cell-centre strain rate (4-node mean: a film one cell thick with a
+    stress-free top has ``|S|^2 = 5 gamma^2 / 32``) would not give it."""
+    g, model, st, vel, load = _sheared_layer(n_material)
+    gamma = 2.0
+    s_w = gamma * min(n_material, 0.5)  # u_1 / dz, u_1 = gamma min(h, dz / 2)
+    S_wall = model.ops.base_strain_rate_norm(vel)
+    assert np.allclose(S_wall, s_w, rtol=1e-12)
+    dense = model.dense(st.phi, st.c)
+    p = model.lithostatic_pressure(st.phi, st.c).ravel()
+    if n_material < 0.5:
+        p = np.where(np.ravel(st.c) > 0, model.material.rho_s * G * st.phi.ravel() * g.dz / 2, 0.0)
+    S = model.ops.strain_rate_norm(vel)
+    dt = 1e-3
+    coef = model.coefficients(st.phi.ravel(), p, S, dt, dense)
+    eta_n = model.ops.cell_to_node @ coef.eta_c
+    out = base_node_viscosity(model, st.phi.ravel(), dense, p, st.p_f, S, dt, coef.eta_c, eta_n, vel=vel)
+    p_wall = model.material.rho_s * G * load
+    I = model.material.inertial_number(np.sqrt(s_w ** 2 + model.eps ** 2), np.hypot(p_wall, model.delta_p))
+    Z = float(model.closure.Z(np.array(st.phi[0, 0]), np.array(I)))
+    stress = 2 * out.reshape(g.node_shape)[:, 0] * s_w
+    extra = 2 * (VISCOUS_ADDITION_FACTOR * model.closure.eta_visc + model.background_viscosity) * s_w
+    reg = s_w / np.sqrt(s_w ** 2 + model.eps ** 2)  # the regularisation, 1 - O(eps^2/S^2)
+    assert np.allclose(stress - extra, Z * p_wall * reg, rtol=1e-10)
+    if n_material == 1.0:  # the centre strain rate is not the wall's
+        assert S.reshape(g.cell_shape)[0, 0] == pytest.approx(np.sqrt(5 / 32) * gamma, rel=1e-12)
+
+
 def test_option_defaults_and_refusal():
     """Scheme v2 defaults (surface = "indicator"): friction at the wall pressure; the v1
     threshold surface keeps the centre pressure unless told otherwise."""

@@ -169,17 +169,18 @@ def _surface_errors(ladder) -> np.ndarray:
 # --- 9c: dry mu(I) layer ---------------------------------------------------------------------
 def test_surface_velocity_converges_to_bagnold(ladder):
     """Default numerics (scheme v2, sharp indicator surface with p = 0 at the reconstructed
-    surface): u_s relative error measured -6.4e-3, -3.6e-4, -3.6e-4 at nz = 10, 20, 40 (-8.2e-4 at
-    80): the partial-surface-cell error of v1 (below) is gone, and from nz = 20 on the error is the
-    grid-independent MODEL_FLOOR of the model parameters, so an order exists only for the first
-    halving (measured 4.1). Required: |err| <= 2.5e-2 at nz = 40 as for v1, order >= 0.6 on the
-    first halving, |err| <= MODEL_FLOOR at nz = 20 and 40; each run steady to 1e-3."""
+    surface, the base's friction at the wall's pressure and strain rate): u_s relative error
+    measured +1.03e-2, +4.6e-3, +1.8e-3 at nz = 10, 20, 40 (session 13; orders 1.16, 1.32): first
+    order, from the base's one-sided wall gradient, above the MODEL_FLOOR of the model parameters.
+    (With the bottom cell's mean strain rate, before, -6.4e-3, -3.6e-4, -3.6e-4: two first-order
+    errors of opposite sign cancelled from nz = 20 on.) Required: |err| <= 2.5e-2 at nz = 40 as for
+    v1, order >= 0.6 on both halvings, |err| <= 5 MODEL_FLOOR at nz = 40; each run steady to 1e-3."""
     errs = _surface_errors(ladder)
     orders = np.log2(np.abs(errs[:-1]) / np.abs(errs[1:]))
     print(f"\nsurface velocity errors {errs}, orders {orders}")
     assert abs(errs[-1]) <= 2.5e-2
-    assert orders[0] >= 0.6, orders
-    assert np.all(np.abs(errs[1:]) <= MODEL_FLOOR), errs
+    assert np.all(orders >= 0.6), orders
+    assert abs(errs[-1]) <= 5 * MODEL_FLOOR, errs
 
 
 def test_v1_surface_velocity_converges_to_bagnold_at_first_order(ladder_v1):
