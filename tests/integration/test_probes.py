@@ -38,8 +38,8 @@ def test_probes_record_the_basal_pore_pressure(tmp_path):
 
 
 def test_probe_outside_the_box_is_rejected():
-    with pytest.raises(GranflowInputError, match=r"output\.probes_x.*\[0\.6\]"):
-        load_case(EXAMPLE, overrides=["output.probes_x=[0.1, 0.6]"])  # the box is 0.5 m long
+    with pytest.raises(GranflowInputError, match=r"output\.probes_x.*\[0\.8\]"):
+        load_case(EXAMPLE, overrides=["output.probes_x=[0.1, 0.8]"])  # the box is 0.7 m long
 
 
 def test_restart_with_other_probes_is_rejected(tmp_path):

@@ -180,8 +180,12 @@ def analyse(results: dict) -> dict:
         finals = [r["fronts"][-1] for r in runs if r["fronts"][-1] is not None]
         levels = [r["n"] for r in runs if r["fronts"][-1] is not None]
         ok = len(levels) >= 2 and all(b == 2 * c for c, b in zip(levels, levels[1:]))
+        qruns = [r for r in runs if "quantiles" in r]
+        qok = len(qruns) >= 2 and all(b["n"] == 2 * c["n"] for c, b in zip(qruns, qruns[1:]))
         out[f"{a:g}"] = {"levels": levels, "compare": {str(r["n"]): compare(r) for r in runs},
                          "front4_extrapolated": richardson(finals) if ok else None,
+                         "quantile4_extrapolated": {f"{q:g}": richardson([r["quantiles"][f"{q:g}"][-1] for r in qruns])
+                                                    for q in QUANTILES} if qok else None,
                          "contact_dynamics": CONTACT_DYNAMICS.get(a)}
     return out
 
@@ -198,7 +202,7 @@ def report(results: dict) -> str:
         ref = BASILISK.get(r["a"], {}).get(r["n"], {})
         cmp_ = compare(r)
         worst = max((abs(v) for v in cmp_.get("front_rel", []) if v is not None), default=None)
-        h0b = ref["h"][0] if ref else None
+        h0b = ref["h"][0] if ref.get("h") else None
         lines.append(f"| {r['a']:g} | {r['n']} | {', '.join(_fmt(f) for f in r['fronts'])} | "
                      f"{', '.join(_fmt(f) for f in ref.get('fronts', ())) or '–'} | "
                      f"{_fmt(None if worst is None else 100 * worst, '.1f')} % | {_fmt(r['h0'])} / {_fmt(h0b)} | "
@@ -221,6 +225,12 @@ def report(results: dict) -> str:
         txt = "–" if est is None else f"{est['value']:.3f} ± {est['uncertainty']:.3f} ({est['method']}, {v['levels']})"
         cd = v["contact_dynamics"]
         lines.append(f"| {a} | {txt} | {cd[0]}–{cd[1]} |" if cd else f"| {a} | {txt} | – |")
+    lines += ["", "| a | t = 4 x_q, Richardson (granflow's levels) | Basilisk's x_q at 128, 256, 512 |", "|---|---|---|"]
+    for a, v in ana.items():
+        for q, est in (v.get("quantile4_extrapolated") or {}).items():
+            ref = BASILISK.get(float(a), {})
+            bas = ", ".join(_fmt(ref[n]["quantiles"][q][-1]) for n in sorted(ref) if "quantiles" in ref[n])
+            lines.append(f"| {a} | x_{q} = {est['value']:.3f} ± {est['uncertainty']:.3f} ({est['method']}) | {bas} |")
     for a, v in ana.items():
         for n, c in v["compare"].items():
             if "profile_diff" in c:
