@@ -32,11 +32,12 @@ channel with a rough base) and its dry twin examples/roche_channel_dry.toml, on 
   atmospheric) at a channel station while the front passes it. Model alone: no published series
   was digitised.
 
-Run:   python validation/roche/run.py [--quick] [--part expansion|channel]
+Run:   python validation/roche/run.py [--quick] [--part expansion|channel] [--dx 0.01]
 Time:  ~4 min on one core for the expansion table, ~1.5 min for the channel (``--quick``: the
        small bed at 1.3 U_mf, and the channel on 4 cm cells for 0.2 s, ~15 s).
 Output: results.json (expansion) and channel.json, front.png, basal_pressure.png (channel) beside
-this script (not with --quick), the tables on stdout; run directories in
+this script (not with --quick; with --dx other than 0.02 m only channel_<dx>cm.json: the 1 cm check,
+~7 min), the tables on stdout; run directories in
 $TMPDIR/granflow_roche (not kept).
 """
 from __future__ import annotations
@@ -287,21 +288,31 @@ def expansion_rows(quick: bool) -> list[dict]:
     return rows
 
 
+def save_channel(runs: dict, dx: float) -> None:
+    """channel.json and the figures at :data:`CHANNEL_DX`; channel_<dx>cm.json at another dx."""
+    if dx == CHANNEL_DX:
+        CHANNEL_JSON.write_text(json.dumps(runs, indent=1) + "\n")
+        channel_figures(runs)
+    else:
+        (HERE / f"channel_{dx * 100:g}cm.json").write_text(json.dumps(runs, indent=1) + "\n")
+
+
 def main(argv: list[str] | None = None) -> dict:
     """Run the expansion table and the channel (module docstring); returns their rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small bed at 1.3 U_mf, the channel on 4 cm cells for 0.2 s")
     ap.add_argument("--part", choices=("expansion", "channel"), help="run only this part")
+    ap.add_argument("--dx", type=float, default=CHANNEL_DX,
+                    help=f"channel cells [m] (default {CHANNEL_DX}; another value writes channel_<dx>cm.json only)")
     args = ap.parse_args(argv)
     out = {}
     if args.part in (None, "expansion"):
         out["expansion"] = expansion_rows(args.quick)
     if args.part in (None, "channel"):
-        runs = channel(QUICK_DX if args.quick else CHANNEL_DX, args.quick)
+        runs = channel(QUICK_DX if args.quick else args.dx, args.quick)
         print(channel_table(runs), flush=True)
         if not args.quick:
-            CHANNEL_JSON.write_text(json.dumps(runs, indent=1) + "\n")
-            channel_figures(runs)
+            save_channel(runs, args.dx)
         out["channel"] = runs
     return out
 

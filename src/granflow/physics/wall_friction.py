@@ -21,8 +21,7 @@ base node keeps the interior's viscosity, i.e. the no-slip base. ``gamma_w`` is 
 lagged velocity, so the cap is updated at every sweep like the interior viscosity. The slip is
 not a deformation of the grains: the bottom cells' strain rate (which sets their viscosity and
 dilatancy) counts only the share ``eta_n'/eta_n`` of the base nodes' shear rate, from the previous
-sweep (:func:`strain_rate_norm`). A rigid layer
-on a slope ``theta`` with ``mu_w < tan(theta)`` (and an interior stronger than ``mu_w``) then
+sweep (:func:`strain_rate_norm`). A rigid layer on a slope ``theta`` with ``mu_w < tan(theta)`` (and an interior stronger than ``mu_w``) then
 accelerates at ``g (sin(theta) - mu_w cos(theta))``; with ``mu_w > tan(theta)`` it stays at rest
 (creeping at speeds ~ eps dz) -- the tests of tests/integration/test_wall_friction.py.
 
@@ -39,7 +38,8 @@ INITIAL_SHARE = 0.0
 """Material share of the base shear assumed at a step's first Picard sweep: all slip (at 1, the
 whole base shear, a sliding layer's bottom cells start weak and dilating, and at the default
 ``picard.tol`` a sliding block's speed came out 2.8 % low after 100 steps of 1 ms, at 0 within
-0.05 %; the converged step does not depend on it)."""
+0.05 %: the Picard fixed point does not depend on it, the iterate where the default tolerance
+stops does)."""
 REG_FACTOR = 2.0
 """``gamma_w`` regularisation = REG_FACTOR * eps: the node shear rate is twice |S| in simple shear."""
 
