@@ -2,7 +2,7 @@
 
 The analysis functions against synthetic series with known answers (a front at constant speed
 that stops, a probe dipping below atmospheric as the front passes), and the ``--quick`` channel
-(4 cm cells, 0.1 s of injection, 0.2 s of flow): it must run clear of the east wall, start from
+(4 cm cells, 0.1 s of injection, 0.4 s of flow): it must run clear of the east wall, start from
 an injected reservoir (basal p_f > 0 at the reservoir station at release) and give a front slower
 than Ritter's inviscid dam-break front 2 sqrt(g H0) (the fastest a fluid released from rest
 spreads in shallow-water theory; Ritter 1892), but moving.
@@ -33,13 +33,15 @@ def synthetic_front(speed: float, t_stop: float, L0: float = 0.2, dx: float = 0.
 
 def test_front_speed_and_stopping_time_of_a_synthetic_front(roche):
     r = synthetic_front(1.9, 0.5)
+    r["t_rest_s"] = 0.6
     out = roche.front_analysis(r)
     assert out["front_speed_m_s"] == pytest.approx(1.9, rel=1e-12)
     assert out["sqrt_2gH0_m_s"] == pytest.approx(math.sqrt(2 * G * 0.4), rel=1e-15)
     assert out["front_speed_over_sqrt_2gH0"] == pytest.approx(1.9 / math.sqrt(2 * G * 0.4), rel=1e-12)
-    # the first record within one cell (0.02 m) of the final front 0.2 + 0.95 m: t >= 0.5 - 0.02/1.9
+    # the first record within one cell (0.02 m) of the front at rest, 0.2 + 0.95 m: t >= 0.5 - 0.02/1.9
     assert out["t_stop_s"] == pytest.approx(0.5, abs=1e-12)
     assert out["fit_points"] >= 3
+    assert out["runout_rest_m"] == pytest.approx(0.95, rel=1e-12)
 
 
 def test_under_pressure_is_the_lowest_pf_after_the_front_arrives(roche):
