@@ -137,3 +137,19 @@ def test_config_keys_and_refusals():
         Model(g, closure, bcs=VelocityBCs(bottom="coulomb"), wall_friction=-0.1)
     with pytest.raises(GranflowInputError, match="base condition"):
         VelocityBCs(top="coulomb")
+
+
+def test_a_fluidised_base_carries_no_friction():
+    """Gas carrying a fraction beta of the weight (p_f = beta p_lith, p = (1 - beta) p_lith): the
+    wall pressure, hence the Coulomb cap, is (1 - beta) of the dry one; 0 when fully fluidised."""
+    g, model, st = _layer(0.0, "coulomb", 0.3)
+    p_lith = model.lithostatic_pressure(st.phi, st.c).ravel()
+    vel = g.pack_velocity(np.full(g.xface_shape, 0.1), np.zeros(g.zface_shape))
+    eta_n = np.full(g.n_nodes, 1e6)
+    caps = []
+    for beta in (0.0, 0.5, 1.0):
+        out, _ = wf.coulomb_base_viscosity(model, st.phi.ravel(), (1 - beta) * p_lith, beta * p_lith, vel, eta_n)
+        caps.append(out.reshape(g.node_shape)[:, 0])
+    assert np.all(caps[0] > 0)
+    assert np.allclose(caps[1], 0.5 * caps[0], rtol=1e-10)
+    assert np.allclose(caps[2], 0.0, atol=1e-12 * caps[0].max())
