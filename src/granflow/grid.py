@@ -74,6 +74,10 @@ class VelocityBC(Enum):
     """Tangential velocity zero on the wall (ghost value = -interior value, NUMERICS.md §8)."""
     FREE_SLIP = "free_slip"
     """Zero shear stress on the wall: zero normal gradient of the tangential velocity."""
+    COULOMB = "coulomb"
+    """Base only: the no-slip ghost, with the wall's shear stress capped at the Coulomb friction
+    ``mu_w p_wall`` (the layer slides when the interior would carry more;
+    :mod:`granflow.physics.wall_friction`)."""
 
 
 @dataclass(frozen=True)
@@ -83,8 +87,10 @@ class VelocityBCs:
     Attributes
     ----------
     west, east, bottom, top : VelocityBC or str
-        Condition on each wall; strings ``"no_slip"`` / ``"free_slip"`` are converted.
-        Defaults: no-slip base, free-slip side walls and top.
+        Condition on each wall; strings ``"no_slip"`` / ``"free_slip"`` / ``"coulomb"`` are
+        converted. Defaults: no-slip base, free-slip side walls and top. ``"coulomb"`` is a base
+        condition only (its friction coefficient is :class:`granflow.model.Model`'s
+        ``wall_friction``).
     """
 
     west: VelocityBC = VelocityBC.FREE_SLIP
@@ -106,6 +112,10 @@ class VelocityBCs:
                     f"expected one of {allowed}"
                 ) from None
             object.__setattr__(self, side.value, converted)
+        for side in (Side.WEST, Side.EAST, Side.TOP):
+            if getattr(self, side.value) is VelocityBC.COULOMB:
+                raise GranflowInputError(f"VelocityBCs: 'coulomb' is a base condition (bottom wall) only, "
+                                         f"got it for wall {side.value!r}")
 
     def kind(self, side: Side) -> VelocityBC:
         """Condition on wall ``side``."""

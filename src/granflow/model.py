@@ -77,7 +77,7 @@ import time
 import numpy as np
 
 from granflow.errors import GranflowInputError
-from granflow.grid import Grid, VelocityBCs
+from granflow.grid import Grid, VelocityBC, VelocityBCs
 from granflow import step
 from granflow.model_options import (  # re-exported: the Model's options and step report
     AUTO_AMG_UNKNOWNS,
@@ -122,6 +122,23 @@ def _option(enum_type, value, what: str):
     except ValueError:
         raise GranflowInputError(f"Model: unknown {what} {value!r}; expected one of "
                                  f"{[e.value for e in enum_type]}") from None
+
+
+def _wall_friction(bcs: VelocityBCs, mu_w) -> float | None:
+    """The base's Coulomb coefficient mu_w [-] (:mod:`granflow.physics.wall_friction`), checked
+    against the base condition: a ``"coulomb"`` base needs one (finite, > 0), the others take none."""
+    coulomb = bcs.bottom is VelocityBC.COULOMB
+    if mu_w is None:
+        if coulomb:
+            raise GranflowInputError("Model: a 'coulomb' base needs wall_friction = mu_w > 0 "
+                                     "(walls.base_friction_deg)")
+        return None
+    if not coulomb:
+        raise GranflowInputError(f"Model: wall_friction = {mu_w!r} needs the 'coulomb' base (walls.bottom), "
+                                 f"got {bcs.bottom.value!r}")
+    if isinstance(mu_w, bool) or not isinstance(mu_w, (int, float, np.floating)) or not (np.isfinite(mu_w) and mu_w > 0):
+        raise GranflowInputError(f"Model: wall_friction must be a finite number > 0, got {mu_w!r}")
+    return float(mu_w)
 
 
 class Model(ClosureCoefficients, GravityWeights, FieldMaps):
@@ -209,6 +226,10 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         :data:`AUTO_BANDED_DIRECT_UNKNOWNS` whole-grid unknowns, else ``amg`` from
         :data:`AUTO_AMG_UNKNOWNS` unknowns up and ``direct`` below).
         The chosen one is :attr:`linear_solver_name`.
+    wall_friction : float, optional
+        Coulomb friction coefficient of the base ``mu_w = tan(delta_w)`` [-] (``walls.base_friction_deg``):
+        needed by, and only allowed with, a ``"coulomb"`` base (``bcs.bottom``); the base shear
+        stress is then ``min(interior, mu_w p_wall)`` (:mod:`granflow.physics.wall_friction`).
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -224,7 +245,8 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                  isochoric_interface: int = DEFAULT_ISOCHORIC_INTERFACE, phi_transport: PhiScheme | str = PhiScheme.MUSCL,
                  surface: Surface | str = Surface.INDICATOR,
                  base_friction: BaseFriction | str | None = None,
-                 momentum_theta: float = mt.MC_THETA, gas_compressibility: str = "isothermal") -> None:
+                 momentum_theta: float = mt.MC_THETA, gas_compressibility: str = "isothermal",
+                 wall_friction: float | None = None) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -240,6 +262,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.material = closure.material
         self.gravity = (float(g[0]), float(g[1]))
         self.ops = Operators.build(grid, bcs)
+        self.wall_friction = _wall_friction(self.ops.bcs, wall_friction)
         self.assembler = mom.SaddleAssembler(self.ops)
         self.eps = float(eps)
         self.ambient = ambient if isinstance(ambient, AmbientParams) else AmbientParams(**(ambient or {}))

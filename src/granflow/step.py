@@ -28,6 +28,7 @@ from granflow.model_options import BaseFriction
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.material import C_ROW, material_window, packing
+from granflow.physics import wall_friction as wf
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.solvers import SaddleHints
 
@@ -303,6 +304,19 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     return out
 
 
+def base_nodes(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n, vel):
+    """The base nodes' viscosity [Pa s] and, on a Coulomb base, their material share (else None):
+    :func:`base_node_viscosity` with ``numerics.base_friction = "wall"`` on a no-slip or Coulomb
+    base, then the Coulomb cap of :func:`granflow.physics.wall_friction.coulomb_base_viscosity`."""
+    if model.base_friction is BaseFriction.WALL and model.ops.bcs.bottom is not VelocityBC.FREE_SLIP:
+        # the wall's strain rate on a no-slip base; a Coulomb base's S already leaves out the slip
+        wall_vel = vel if model.ops.bcs.bottom is VelocityBC.NO_SLIP else None
+        eta_n = base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt, eta_c, eta_n, vel=wall_vel)
+    if model.wall_friction is None:
+        return eta_n, None
+    return wf.coulomb_base_viscosity(model, phi_e, p_eval, p_f, vel, eta_n)
+
+
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
     """Stage 2: the Picard loop (module docstring of :mod:`granflow.model`, step 2)."""
     g, ops = model.grid, model.ops
@@ -317,7 +331,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         model.linear_solver.begin_step()
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
     changes, rel, n_negz, krylov, converged, sweeps = 0, np.inf, 0, 0, False, 0
-    rho_k, flux_div, rhs_u = ex.rho_n, None, ex.rhs_u
+    rho_k, flux_div, rhs_u, share = ex.rho_n, None, ex.rhs_u, None  # share: base_nodes
     phi_f_n = ops.cell_to_face @ state.phi.ravel() if consistent else None
     window_n = ex.window if consistent else None
     for sweeps in range(1, model.picard.max_sweeps + 1):
@@ -327,7 +341,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
                                                         state.c, phi_f_n, window_n,
                                                         ex.fluxes_n if sweeps == 1 else None)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
-        S_k = ops.strain_rate_norm(u_k)
+        S_k = ops.strain_rate_norm(u_k) if model.wall_friction is None else wf.strain_rate_norm(model, u_k, share)
         coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0
@@ -338,8 +352,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         n_negz = max(n_negz, coef.n_negative_Z)
         eta_c = coef.eta_c
         eta_n = ops.cell_to_node @ eta_c
-        if model.base_friction is BaseFriction.WALL and model.ops.bcs.bottom is VelocityBC.NO_SLIP:
-            eta_n = base_node_viscosity(model, ex.phi_e, dense, p_eval, state.p_f, S_k, dt, coef.eta_c, eta_n, vel=u_k)
+        eta_n, share = base_nodes(model, ex.phi_e, dense, p_eval, state.p_f, S_k, dt, coef.eta_c, eta_n, u_k)
         if ex.band_edge is not None:  # a stress-free band edge
             eta_c = np.where(ex.band_edge[0], 0.0, eta_c)
             eta_n = np.where(ex.band_edge[1], 0.0, eta_n)

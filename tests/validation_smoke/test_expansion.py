@@ -85,6 +85,6 @@ def test_validation_script_quick():
     """validation/roche/run.py --quick (the small bed at 1.3 U_mf) runs and reports the table row."""
     from _scripts import load_script
 
-    rows = load_script("validation/roche/run.py", "roche_run").main(["--quick"])
+    rows = load_script("validation/roche/run.py", "roche_run").main(["--quick", "--part", "expansion"])["expansion"]
     assert len(rows) == 1 and rows[0]["U_over_Umf"] == 1.3 and rows[0]["prep_steady"]
     assert rows[0]["prep_phi_mean"] == pytest.approx(balance_root(1.3), rel=1e-2)

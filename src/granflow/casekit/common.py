@@ -76,7 +76,7 @@ def make_model(config: CaseConfig, **overrides: Any) -> Model:
         consistent_gravity=n.consistent_gravity, advection=n.advection, phi_transport=n.phi_transport,
         gravity_blend_velocity=n.gravity_blend_velocity, linear_solver=n.linear_solver,
         isochoric_interface=n.isochoric_interface, surface=n.surface, base_friction=n.base_friction,
-        momentum_theta=n.momentum_theta,
+        momentum_theta=n.momentum_theta, wall_friction=w.wall_friction,
         **gas_options(config))
     unknown = set(overrides) - set(inspect.signature(Model).parameters)
     if unknown:

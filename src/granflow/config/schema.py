@@ -113,6 +113,10 @@ MAX_SLOPE_DEG = 90.0
 OUTPUT_FIELDS = ("phi", "c", "u", "w", "p", "p_f", "S")
 """Cell-centred fields that can be written to the NetCDF output."""
 WallCondition = Literal["no_slip", "free_slip"]
+BaseCondition = Literal["no_slip", "free_slip", "coulomb"]
+"""The base's conditions: a wall's, or ``"coulomb"`` (friction ``walls.base_friction_deg``)."""
+MAX_FRICTION_DEG = 90.0
+"""Base friction angles lie strictly within (0, 90) degrees."""
 
 
 def enum_values(enum) -> tuple[str, ...]:
@@ -202,8 +206,27 @@ class WallsSection(Section):
 
     west: WallCondition = Field("free_slip", description="wall x = 0 (symmetry plane when free_slip) [-]")
     east: WallCondition = Field("free_slip", description="wall x = Lx [-]")
-    bottom: WallCondition = Field("no_slip", description="base z = 0 [-]")
+    bottom: BaseCondition = Field("no_slip", description='base z = 0; "coulomb": the grains slide on '
+                                  'it once their shear stress reaches tan(base_friction_deg) p_wall [-]')
     top: WallCondition = Field("free_slip", description="lid z = Lz [-]")
+    base_friction_deg: float | None = Field(
+        None, gt=0, lt=MAX_FRICTION_DEG, description='wall friction angle delta_w of a "coulomb" base '
+        '(needed there, refused otherwise): basal shear stress at most tan(delta_w) p_wall, p_wall the '
+        'granular pressure on the base [deg]')
+
+    @model_validator(mode="after")
+    def _coulomb_friction(self) -> WallsSection:
+        if self.bottom == "coulomb" and self.base_friction_deg is None:
+            raise ValueError('walls.bottom = "coulomb" needs walls.base_friction_deg (the wall friction '
+                             'angle, degrees)')
+        if self.bottom != "coulomb" and self.base_friction_deg is not None:
+            raise ValueError(f'walls.base_friction_deg needs walls.bottom = "coulomb" (got "{self.bottom}")')
+        return self
+
+    @property
+    def wall_friction(self) -> float | None:
+        """mu_w = tan(base_friction_deg) [-], or None (no Coulomb base)."""
+        return None if self.base_friction_deg is None else math.tan(math.radians(self.base_friction_deg))
 
 
 class GravitySection(Section):
