@@ -76,13 +76,23 @@ class MatrixType(int, Enum):
 _IPARM_USER = 1
 """iparm(1) = 1: the iparm array is filled by the caller."""
 _IPARM_SETTINGS = {
-    MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1},
-    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 8: 2, 10: 8, 11: 1, 13: 1, 21: 1},
+    MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 10: 13, 11: 1, 13: 1},
+    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 10: 8, 11: 1, 13: 1, 21: 1},
 }
 """1-based iparm entries set per matrix type: MKL's documented defaults (10: pivot perturbation
 1e-13 / 1e-8; 21 = 1 for the symmetric type: Bunch-Kaufman 1x1 and 2x2 pivots) with scaling and weighted matching on (11 = 13 = 1; MKL recommends them for
-saddle-point symmetric indefinite systems, whose residual is 1e-10 without them), and 8 = 2, up to
-two steps of iterative refinement (MKL's default 0 refines only after perturbed pivots)."""
+saddle-point symmetric indefinite systems, whose residual is 1e-10 without them). iparm(8), the
+iterative refinement, is :attr:`PardisoSolver.Parameters.refinement_steps`."""
+_IPARM_REFINEMENT = 8
+MAX_REFINEMENT_STEPS = 10
+"""Upper bound of :attr:`PardisoSolver.Parameters.refinement_steps` (a sanity bound)."""
+"""1-based iparm entry of the maximum number of iterative refinement steps."""
+DEFAULT_REFINEMENT_STEPS = 0
+"""iparm(8) by default (:attr:`PardisoSolver.Parameters.refinement_steps`): MKL's default, which
+refines (two steps) only after perturbed pivots. Measured on the Lagree column at 128^2 to t = 4
+(1411 solves, no perturbed pivot): relative residual <= 2.9e-14 without refinement (median
+6.6e-16) and the same steps, sweeps and fronts as with two steps (the earlier setting, which did
+both steps at every solve), with the solve phase 1.13 -> 0.63 ms (benchmarks/README.md, issue 15)."""
 DEFAULT_REPRODUCIBLE_THREADS = 4
 """iparm(34) by default (:attr:`PardisoSolver.Parameters.reproducible_threads`)."""
 DEFAULT_THREADED_MIN_UNKNOWNS = 100_000
@@ -282,6 +292,11 @@ class PardisoSolver(LinearSolver):
             Systems smaller than this are solved on one thread (MKL's thread-local setting,
             whatever ``MKL_NUM_THREADS`` says); larger ones use MKL's threads. Default
             :data:`DEFAULT_THREADED_MIN_UNKNOWNS`; 0 = always threaded.
+        refinement_steps : int
+            Maximum iterative refinement steps of each solve (``iparm[7]``). Default
+            :data:`DEFAULT_REFINEMENT_STEPS` = 0: MKL refines (two steps) only after perturbed
+            pivots; n > 0 refines up to n steps at every solve. Either way a solution whose
+            relative residual exceeds :data:`RESIDUAL_LIMIT` is redone by SuperLU.
         """
 
         ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
@@ -290,6 +305,8 @@ class PardisoSolver(LinearSolver):
                                           description="MKL CNR mode thread count (0 = off)")
         threaded_min_unknowns: int = Field(DEFAULT_THREADED_MIN_UNKNOWNS, ge=0,
                                            description="smaller systems run on one thread")
+        refinement_steps: int = Field(DEFAULT_REFINEMENT_STEPS, ge=0, le=MAX_REFINEMENT_STEPS,
+                                      description="maximum iterative refinement steps per solve")
 
     def __init__(self, params: Params) -> None:
         super().__init__(params)
@@ -323,6 +340,7 @@ class PardisoSolver(LinearSolver):
         for i, v in _IPARM_SETTINGS[mtype].items():
             self._solver.set_iparm(i, v)
         self._solver.set_iparm(2, _ORDERING_IPARM[PardisoOrdering(self.params.ordering)])
+        self._solver.set_iparm(_IPARM_REFINEMENT, int(self.params.refinement_steps))
         self._solver.set_iparm(34, int(self.params.reproducible_threads))
 
     @property
