@@ -128,6 +128,9 @@ class Explicit:
     """Solid fluxes of a transport with ``u^n`` (:meth:`granflow.model.Model.transport_fluxes`),
     shared by the gravity weight and the first Picard sweep of the consistent transport (whose
     iterate starts at ``u^n``); None if neither needs them."""
+    strain: object = None
+    """``|S|`` on the dense cells (:meth:`granflow.operators.Operators.strain_rate_on`), where the
+    closure is evaluated; None: the whole-grid :meth:`~granflow.operators.Operators.strain_rate_norm`."""
 
 
 def band_edge(ops, keep) -> tuple:
@@ -216,7 +219,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
-                    band_edge=edge, window=window, fluxes_n=fluxes_n)
+                    band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.ops.strain_rate_on(dense))
 
 
 def hint_viscosity(model, eta) -> np.ndarray:
@@ -320,7 +323,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
                                                         state.c, phi_f_n, window_n,
                                                         ex.fluxes_n if sweeps == 1 else None)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
-        S_k = ops.strain_rate_norm(u_k)
+        S_k = ops.strain_rate_norm(u_k) if ex.strain is None else ex.strain(u_k)  # used on dense cells
         coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0
