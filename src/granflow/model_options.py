@@ -103,7 +103,7 @@ class BaseFriction(str, Enum):
     WALL = "wall"
     """The same cells' viscosity evaluated at the pressure extrapolated to the wall
     (:func:`granflow.physics.momentum.base_pressure`) and the wall's strain rate
-    (:meth:`granflow.operators.Operators.base_strain_rate_norm`), so that the basal stress is
+    (:func:`granflow.physics.wall_friction.base_strain_rate_norm`), so that the basal stress is
     ``Z(I_wall) p_wall`` at any thickness (default with the indicator surface)."""
 
 

@@ -129,6 +129,9 @@ class Explicit:
     """Solid fluxes of a transport with ``u^n`` (:meth:`granflow.model.Model.transport_fluxes`),
     shared by the gravity weight and the first Picard sweep of the consistent transport (whose
     iterate starts at ``u^n``); None if neither needs them."""
+    strain: object = None
+    """``|S|`` on the dense cells (:meth:`granflow.operators.Operators.strain_rate_on`), where the
+    closure is evaluated; None: the whole-grid :meth:`~granflow.operators.Operators.strain_rate_norm`."""
 
 
 def band_edge(ops, keep) -> tuple:
@@ -217,7 +220,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
-                    band_edge=edge, window=window, fluxes_n=fluxes_n)
+                    band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.ops.strain_rate_on(dense))
 
 
 def hint_viscosity(model, eta) -> np.ndarray:
@@ -274,7 +277,7 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     at the cells' packing and strain rate but at the pressure extrapolated to the wall
     (:func:`granflow.physics.momentum.base_pressure`; the pore-pressure gradient of the first
     interior z-face) and the strain rate at the wall (``vel`` given:
-    :meth:`granflow.operators.Operators.base_strain_rate_norm`, the cell's two base nodes; else the
+    :func:`granflow.physics.wall_friction.base_strain_rate_norm`, the cell's two base nodes; else the
     cell's ``S``). The basal shear stress ``2 eta_n S_xz`` is then ``Z p_wall`` for a film of any
     thickness, where the centre pressure gives half the weight of a one-cell layer and the centre
     strain rate (the mean over the cell's four nodes) ``sqrt(2)`` times the friction of a film one
@@ -296,7 +299,7 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
         return eta_n
     S_wall = np.array(S, dtype=float).reshape(nx, nz)
     if vel is not None:
-        S_wall[:, 0] = model.ops.base_strain_rate_norm(vel)
+        S_wall[:, 0] = wf.base_strain_rate_norm(model.ops, vel)
     eta_wall = np.where(base, model.cell_viscosity(phi_e, p_wall.ravel(), S_wall.ravel(), base), eta_c)
     nodes, to_nodes = model.base_node_rows
     out = np.array(eta_n, dtype=float)
@@ -315,6 +318,15 @@ def base_nodes(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n, vel
     if model.wall_friction is None:
         return eta_n, None
     return wf.coulomb_base_viscosity(model, phi_e, p_eval, p_f, vel, eta_n)
+
+
+def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
+    """``|S|`` of a Picard sweep [s^-1]: on a Coulomb base with the slip left out of the bottom
+    cells (:func:`granflow.physics.wall_friction.strain_rate_norm`), else on the dense cells only
+    (``ex.strain``; where the closure and the base friction read it) or everywhere."""
+    if model.wall_friction is not None:
+        return wf.strain_rate_norm(model, u_k, share)
+    return model.ops.strain_rate_norm(u_k) if ex.strain is None else ex.strain(u_k)
 
 
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
@@ -341,7 +353,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
                                                         state.c, phi_f_n, window_n,
                                                         ex.fluxes_n if sweeps == 1 else None)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
-        S_k = ops.strain_rate_norm(u_k) if model.wall_friction is None else wf.strain_rate_norm(model, u_k, share)
+        S_k = sweep_strain_rate(model, ex, u_k, share)
         coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0

@@ -90,6 +90,22 @@ def test_agrees_with_superlu_and_keeps_the_analysis(systems):
     assert solver.analyses >= len(patterns) >= 1
 
 
+def test_refinement_only_after_perturbed_pivots_by_default(systems):
+    """Default ``refinement_steps = 0`` (MKL's default): no refinement step on the Model's systems
+    (no perturbed pivot; MKL reports the steps done in iparm(7)), residual below 1e-10 and the same
+    solution as with two steps at every solve (the earlier setting) to 1e-12; the parameter is
+    bounded."""
+    plain, refined = make_linear_solver("pardiso"), make_linear_solver("pardiso", refinement_steps=2)
+    for K, b in systems:
+        x, info = plain.solve(K, b)
+        assert int(plain._solver.iparm[6]) == 0 and int(plain._solver.iparm[13]) == 0
+        y, _ = refined.solve(K, b)
+        assert int(refined._solver.iparm[6]) == 2
+        assert info.residual < 1e-10 and rel(x, y) < 1e-12
+    with pytest.raises(GranflowInputError, match="refinement_steps"):
+        make_linear_solver("pardiso", refinement_steps=-1)
+
+
 def test_reuse_by_change_kind(systems):
     K, b = systems[0]
     solver = make_linear_solver("pardiso", ordering="metis")

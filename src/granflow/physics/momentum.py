@@ -48,7 +48,7 @@ import scipy.sparse as sp
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side
-from granflow.operators import GHOST_SIGN, Operators, product_pairs
+from granflow.operators import GHOST_SIGN, Operators, product_pairs, sorted_unique
 
 QUARTER = 0.25
 HALF = 0.5
@@ -273,7 +273,7 @@ class _SaddleLayout:
             cols += [fp, fr, size + blk.col.astype(np.int64)]
             size += widx.size
         rows, cols = np.concatenate(rows), np.concatenate(cols)
-        order = np.lexsort((cols, rows))
+        order = np.argsort(rows * size + cols, kind="stable")  # = lexsort((cols, rows)), 2x cheaper
         rows, cols = rows[order], cols[order]
         if np.any((np.diff(rows) == 0) & (np.diff(cols) == 0)):
             raise GranflowInputError("saddle: duplicate entries in the saddle-point pattern")
@@ -305,7 +305,7 @@ class SaddleAssembler:
         kc, rc, vc = product_pairs(ops.ec, n)
         kn, rn, vn = product_pairs(ops.en, n)
         kd = np.arange(n, dtype=np.int64) * (n + 1)
-        keys = np.unique(np.concatenate([kc, kn, kd]))
+        keys = sorted_unique(np.concatenate([kc, kn, kd]))
         self._rows = (keys // n).astype(np.int64)
         self._cols = (keys % n).astype(np.int64)
         nnz = keys.size

@@ -69,7 +69,7 @@ from granflow.gas import GasCompressibility, GasLaw  # noqa: F401  (re-exported:
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 from granflow.materials import Material
-from granflow.operators import Operators, product_pairs
+from granflow.operators import Operators, product_pairs, sorted_unique
 
 PHI_FLOOR = 1e-3
 """Lower clip of phi in kappa(phi) [-] (kappa diverges as phi -> 0)."""
@@ -213,7 +213,7 @@ class _DiffusionPattern:
         n = ops.grid.n_cells
         k, r, v = product_pairs(ops.grad, n)
         kd = np.arange(n, dtype=np.int64) * (n + 1)
-        keys = np.unique(np.concatenate([k, kd]))
+        keys = sorted_unique(np.concatenate([k, kd]))
         self.n = n
         self.rows, self.cols = (keys // n).astype(np.int64), (keys % n).astype(np.int64)
         self.indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows, minlength=n))]).astype(np.int64)

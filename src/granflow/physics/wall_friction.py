@@ -106,3 +106,21 @@ def base_shear_stress(model, vel, eta_n) -> np.ndarray:
     per unit area the base exerts is minus this; diagnostics and tests)."""
     nodes, _ = model.base_node_rows
     return (np.asarray(eta_n, dtype=float) * (model.ops.en @ np.asarray(vel, dtype=float)))[nodes]
+
+
+def base_strain_rate_norm(ops, vel) -> np.ndarray:
+    """``|S|`` at the base of each bottom cell [s^-1], shape ``(nx,)``.
+
+    As :meth:`granflow.operators.Operators.strain_rate_norm` but with ``S_xz^2`` averaged over the
+    cell's two bottom nodes only (on the wall), so that the base's shear stress ``2 eta S_xz`` of
+    a viscosity ``Z p / (2 |S|)`` evaluated at it is ``Z p`` in simple shear, whatever the profile
+    above: the centre's 4-node mean gives ``|S|`` half-way up the cell, ``1/sqrt(2)`` of the wall's
+    in a film one cell thick with a stress-free top (basal friction ``sqrt(2) Z p``). Used by the
+    ``"wall"`` base friction on a no-slip base (:func:`granflow.step.base_node_viscosity`).
+    """
+    vel = ops._velocity(vel)
+    g = ops.grid
+    nx, nz = g.cell_shape
+    sxx2 = (0.25 * (ops.ec @ vel) ** 2).reshape(nx, nz)[:, 0]
+    sxz2 = (0.25 * (ops.en @ vel) ** 2).reshape(g.node_shape)[:, 0]
+    return np.sqrt(sxx2 + 0.5 * (sxz2[:-1] + sxz2[1:]))

@@ -76,13 +76,23 @@ class MatrixType(int, Enum):
 _IPARM_USER = 1
 """iparm(1) = 1: the iparm array is filled by the caller."""
 _IPARM_SETTINGS = {
-    MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 8: 2, 10: 13, 11: 1, 13: 1},
-    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 8: 2, 10: 8, 11: 1, 13: 1, 21: 1},
+    MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 10: 13, 11: 1, 13: 1},
+    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 10: 8, 11: 1, 13: 1, 21: 1},
 }
 """1-based iparm entries set per matrix type: MKL's documented defaults (10: pivot perturbation
 1e-13 / 1e-8; 21 = 1 for the symmetric type: Bunch-Kaufman 1x1 and 2x2 pivots) with scaling and weighted matching on (11 = 13 = 1; MKL recommends them for
-saddle-point symmetric indefinite systems, whose residual is 1e-10 without them), and 8 = 2, up to
-two steps of iterative refinement (MKL's default 0 refines only after perturbed pivots)."""
+saddle-point symmetric indefinite systems, whose residual is 1e-10 without them). iparm(8), the
+iterative refinement, is :attr:`PardisoSolver.Parameters.refinement_steps`."""
+_IPARM_REFINEMENT = 8
+MAX_REFINEMENT_STEPS = 10
+"""Upper bound of :attr:`PardisoSolver.Parameters.refinement_steps` (a sanity bound)."""
+"""1-based iparm entry of the maximum number of iterative refinement steps."""
+DEFAULT_REFINEMENT_STEPS = 0
+"""iparm(8) by default (:attr:`PardisoSolver.Parameters.refinement_steps`): MKL's default, which
+refines (two steps) only after perturbed pivots. Measured on the Lagree column at 128^2 to t = 4
+(1411 solves, no perturbed pivot): relative residual <= 2.9e-14 without refinement (median
+6.6e-16) and the same steps, sweeps and fronts as with two steps (the earlier setting, which did
+both steps at every solve), with the solve phase 1.13 -> 0.63 ms (benchmarks/README.md, issue 15)."""
 DEFAULT_REPRODUCIBLE_THREADS = 4
 """iparm(34) by default (:attr:`PardisoSolver.Parameters.reproducible_threads`)."""
 DEFAULT_THREADED_MIN_UNKNOWNS = 100_000
@@ -183,23 +193,32 @@ def _new_pypardiso(mtype: int):
             del os.environ[_MKL_RT_VARIABLE]
 
 
-def _is_symmetric(A: sp.csr_matrix) -> bool:
-    """``A`` (CSR, canonical) equals its transpose exactly, with every diagonal entry stored."""
-    T = A.tocsc()  # the CSR arrays of A^T, indices sorted
-    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)
-            and np.array_equal(T.data, A.data)):
-        return False
-    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-    return int(np.count_nonzero(A.indices == rows)) == A.shape[0]
+def _transpose_permutation(A: sp.csr_matrix) -> np.ndarray | None:
+    """For a CSR pattern (canonical) that equals its transpose's and stores every diagonal
+    entry: the permutation ``t`` with ``A.T``'s CSR data ``= A.data[t]``, so that a matrix of
+    that pattern is symmetric exactly when ``A.data[t] == A.data`` (one gather instead of a
+    transposition per sweep); else None."""
+    n = A.shape[0]
+    T = sp.csr_matrix((np.arange(A.nnz, dtype=np.int64), A.indices, A.indptr), shape=A.shape).tocsc()
+    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)):
+        return None
+    rows = np.repeat(np.arange(n), np.diff(A.indptr))
+    if int(np.count_nonzero(A.indices == rows)) != n:
+        return None
+    return T.data
 
 
 class _UpperTriangle:
     """The upper triangle (diagonal included) of a fixed CSR pattern: which entries, and its own
     CSR pattern, so that every matrix of the pattern gives the same triangle pattern (stored
-    zeros kept, unlike ``scipy.sparse.triu``)."""
+    zeros kept, unlike ``scipy.sparse.triu``). :meth:`of_values` fills one CSR matrix kept per
+    pattern, whose index arrays are private (never changed), with PARDISO's 1-based int32 copies
+    made once (``one_based``; pypardiso's ``_call_pardiso`` makes them at every phase)."""
 
     def __init__(self, shape, keep: np.ndarray, indptr: np.ndarray, indices: np.ndarray) -> None:
         self.shape, self.keep, self.indptr, self.indices = shape, keep, indptr, indices
+        self.matrix = sp.csr_matrix((np.zeros(keep.size), indices, indptr), shape=shape)
+        self.one_based = (self.matrix.indptr.astype(np.int32) + 1, self.matrix.indices.astype(np.int32) + 1)
 
     @classmethod
     def of(cls, A: sp.csr_matrix) -> _UpperTriangle:
@@ -210,7 +229,34 @@ class _UpperTriangle:
         return cls(A.shape, np.flatnonzero(up), indptr, A.indices[up])
 
     def of_values(self, data: np.ndarray) -> sp.csr_matrix:
-        return sp.csr_matrix((data[self.keep], self.indices, self.indptr), shape=self.shape)
+        self.matrix.data = data[self.keep]
+        return self.matrix
+
+
+def _pardiso_call(solver, A: sp.csr_matrix, b: np.ndarray, one_based=None) -> np.ndarray:
+    """pypardiso's ``PyPardisoSolver._call_pardiso`` (0.4.x) with the 1-based int32 index arrays
+    ``one_based = (ia, ja)`` of ``A`` given (made here if None): the same MKL ``pardiso`` call,
+    arguments and error (``PyPardisoError``)."""
+    from pypardiso.pardiso_wrapper import PyPardisoError
+
+    ia, ja = one_based if one_based is not None else (A.indptr.astype(np.int32) + 1,
+                                                      A.indices.astype(np.int32) + 1)
+    x = np.zeros_like(b)
+    err = ctypes.c_int32(0)
+    int_p, float_p = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
+
+    def int_ref(v: int):
+        return ctypes.byref(ctypes.c_int32(v))
+
+    solver._mkl_pardiso(solver.pt.ctypes.data_as(ctypes.POINTER(solver._pt_type[0])), int_ref(1), int_ref(1),
+                        int_ref(solver.mtype), int_ref(solver.phase), int_ref(A.shape[0]),
+                        A.data.ctypes.data_as(float_p), ia.ctypes.data_as(int_p), ja.ctypes.data_as(int_p),
+                        solver.perm.ctypes.data_as(int_p), int_ref(1 if b.ndim == 1 else b.shape[1]),
+                        solver.iparm.ctypes.data_as(int_p), int_ref(solver.msglvl),
+                        b.ctypes.data_as(float_p), x.ctypes.data_as(float_p), ctypes.byref(err))
+    if err.value != 0:
+        raise PyPardisoError(err.value)
+    return np.ascontiguousarray(x)
 
 
 @LINEAR_SOLVERS.register("pardiso")
@@ -246,6 +292,11 @@ class PardisoSolver(LinearSolver):
             Systems smaller than this are solved on one thread (MKL's thread-local setting,
             whatever ``MKL_NUM_THREADS`` says); larger ones use MKL's threads. Default
             :data:`DEFAULT_THREADED_MIN_UNKNOWNS`; 0 = always threaded.
+        refinement_steps : int
+            Maximum iterative refinement steps of each solve (``iparm[7]``). Default
+            :data:`DEFAULT_REFINEMENT_STEPS` = 0: MKL refines (two steps) only after perturbed
+            pivots; n > 0 refines up to n steps at every solve. Either way a solution whose
+            relative residual exceeds :data:`RESIDUAL_LIMIT` is redone by SuperLU.
         """
 
         ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
@@ -254,6 +305,8 @@ class PardisoSolver(LinearSolver):
                                           description="MKL CNR mode thread count (0 = off)")
         threaded_min_unknowns: int = Field(DEFAULT_THREADED_MIN_UNKNOWNS, ge=0,
                                            description="smaller systems run on one thread")
+        refinement_steps: int = Field(DEFAULT_REFINEMENT_STEPS, ge=0, le=MAX_REFINEMENT_STEPS,
+                                      description="maximum iterative refinement steps per solve")
 
     def __init__(self, params: Params) -> None:
         super().__init__(params)
@@ -272,6 +325,8 @@ class PardisoSolver(LinearSolver):
         """The current matrix is solved on one thread (decided at its analysis)."""
         self._upper: _UpperTriangle | None = None
         """Upper triangle of the current pattern when it is solved as symmetric."""
+        self._transpose: np.ndarray | None = None
+        """:func:`_transpose_permutation` of the current pattern (symmetric type only)."""
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
         self._data: np.ndarray | None = None
         self.analyses = 0
@@ -285,6 +340,7 @@ class PardisoSolver(LinearSolver):
         for i, v in _IPARM_SETTINGS[mtype].items():
             self._solver.set_iparm(i, v)
         self._solver.set_iparm(2, _ORDERING_IPARM[PardisoOrdering(self.params.ordering)])
+        self._solver.set_iparm(_IPARM_REFINEMENT, int(self.params.refinement_steps))
         self._solver.set_iparm(34, int(self.params.reproducible_threads))
 
     @property
@@ -308,7 +364,9 @@ class PardisoSolver(LinearSolver):
         # garbage-collected solver can release its memory from inside another one's call
         previous = local(1) if local is not None else None
         try:
-            return self._solver._call_pardiso(A, b)
+            upper = getattr(self, "_upper", None)
+            own = upper is not None and A is upper.matrix  # its 1-based arrays are kept
+            return _pardiso_call(self._solver, A, b, upper.one_based if own else None)
         except Exception as err:  # pypardiso.PyPardisoError carries MKL's error code
             raise LinearSolverError(f"pardiso phase {int(phase)}: {err}") from err
         finally:
@@ -345,12 +403,16 @@ class PardisoSolver(LinearSolver):
                         and np.array_equal(A.indices, self._pattern[1]))
         same_values = same_pattern and self._data is not None and (
             change is MatrixChange.NONE or (change is MatrixChange.AUTO and np.array_equal(A.data, self._data)))
-        if same_pattern and not same_values and self._upper is not None and not _is_symmetric(A):
+        if (same_pattern and not same_values and self._upper is not None
+                and not np.array_equal(A.data[self._transpose], A.data)):
             same_pattern = False  # new values are not symmetric: analyse again as unsymmetric
         analysed = False
         if not same_pattern:
             self._pattern, self._data = None, None  # valid again only once the phases succeed
-            self._upper = _UpperTriangle.of(A) if _is_symmetric(A) else None
+            self._transpose = _transpose_permutation(A)
+            if self._transpose is not None and not np.array_equal(A.data[self._transpose], A.data):
+                self._transpose = None
+            self._upper = None if self._transpose is None else _UpperTriangle.of(A)
             mtype = MatrixType.UNSYMMETRIC if self._upper is None else MatrixType.SYMMETRIC_INDEFINITE
             if mtype is not self.matrix_type:
                 self._release()
