@@ -144,7 +144,7 @@ def test_every_documented_command_runs_in_order_on_a_fresh_clone(tmp_path, monke
                 ran.append(argv)
     # the commands did what they say: the README's outputs exist
     assert (clone / "runs" / "column_collapse_fluidised" / "output.nc").is_file()
-    assert (clone / "runs" / "fluidised_80x30" / "summary.json").is_file()
+    assert (clone / "runs" / "fluidised_140x30" / "summary.json").is_file()
     assert (clone / "pf.gif").is_file() and (clone / "rr.png").is_file()
     assert (clone / "runs" / "column_collapse_fluidised" / "vtk").is_dir()
     assert (clone / "runs" / "sweep_column").is_dir()
