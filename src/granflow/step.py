@@ -283,15 +283,9 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     strain rate (the mean over the cell's four nodes) ``sqrt(2)`` times the friction of a film one
     cell thick.
     """
-    g = model.grid
-    nx, nz = g.cell_shape
-    p2 = np.asarray(p_eval, dtype=float).reshape(nx, nz)
-    phi2 = np.asarray(phi_e, dtype=float).reshape(nx, nz)
-    pf2 = np.asarray(p_f, dtype=float).reshape(nx, nz)
-    dpf = (pf2[:, 1] - pf2[:, 0]) / g.dz if nz > 1 else 0.0
-    p_wall = p2.copy()
-    p_wall[:, 0] = mom.base_pressure(p2[:, 0], phi2[:, 0], model.material.rho_s, abs(model.gravity[1]),
-                                     g.dz, dpf)
+    nx, nz = model.grid.cell_shape
+    p_wall = np.array(p_eval, dtype=float).reshape(nx, nz)
+    p_wall[:, 0] = wf.wall_pressure(model, phi_e, p_eval, p_f)
     base = np.zeros((nx, nz), dtype=bool)
     base[:, 0] = True
     base = base.ravel() & np.asarray(dense, dtype=bool).ravel()
