@@ -15,9 +15,10 @@ Runs (examples/column_collapse_dry.toml and examples/column_collapse_fluidised.t
 schemes ``SCHEME_NUMERICS``: "upwind", "muscl", "consistent" momentum advection with the threshold
 surface, and "v2" (consistent advection with the indicator surface, the default numerics):
 
-* Δx series with Δt ∝ Δx: 20 x 8, 40 x 16, 80 x 32 cells on 0.4 x 0.16 m (square cells of 2, 1,
-  0.5 cm, the column edges on cell faces at every level), ``dt_max`` = 2e-3, 1e-3, 5e-4 s;
-* Δt series at the example grid 40 x 15 (0.4 x 0.15 m): ``dt_max`` = 2e-3, 1e-3, 5e-4, 2.5e-4 s
+* Δx series with Δt ∝ Δx: 20 x 8, 40 x 16, 80 x 32 cells on L x 0.16 m, L = :data:`BOX_LX` (0.4 m
+  dry: square cells of 2, 1, 0.5 cm; 0.5 m fluidised: 2.5 x 2 cm, 1.25 x 1, 0.625 x 0.5 cm; the
+  column edges on cell faces at every level), ``dt_max`` = 2e-3, 1e-3, 5e-4 s;
+* Δt series at the grid 40 x 15 (L x 0.15 m): ``dt_max`` = 2e-3, 1e-3, 5e-4, 2.5e-4 s
   (upwind and consistent).
 
 The CFL condition of :class:`~granflow.simulation.Simulation` (cfl 0.3) may shorten dt; the dt
@@ -87,6 +88,10 @@ FINE_SCHEMES = ("v2",)
 DT_GRID = (40, 15, 0.15)
 """(nx, nz, Lz [m]) of the Δt series: the grid of the example files."""
 DT_LEVELS = (2.0e-3, 1.0e-3, 5.0e-4, 2.5e-4)
+BOX_LX = {"dry": 0.4, "fluidised": 0.5}
+"""Box length of each case's Δx and Δt series [m], pinned (the example files' lengths when the
+series were last run: the dry column's cells are square, the fluidised column's 1.25 x 1 cm at
+40 x 16), so that a change of an example's box does not change the series."""
 FRONT_THRESHOLD = 5.0e-3
 """Deposit thickness that defines the front [m] (docs/solver.md)."""
 L0 = 0.1
@@ -250,7 +255,7 @@ def make_simulation(case: str, nx: int, nz: int, Lz: float, dt_max: float, schem
                     t_end: float):
     """The example's Simulation with the grid, time step, scheme and stop time replaced."""
     advection, surface = SCHEME_NUMERICS[scheme]
-    overrides = [f"grid.nx={nx}", f"grid.nz={nz}", f"grid.Lz={Lz}", f"time.dt_max={dt_max}",
+    overrides = [f"grid.nx={nx}", f"grid.nz={nz}", f"grid.Lx={BOX_LX[case]}", f"grid.Lz={Lz}", f"time.dt_max={dt_max}",
                  f"time.stop_time={t_end}", f'numerics.advection="{advection}"',
                  f'numerics.surface="{surface}"', 'numerics.linear_solver="auto"']
     cfg = example_config(case, overrides)
