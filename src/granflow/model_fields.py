@@ -49,6 +49,14 @@ class FieldMaps:
         nodes = nodes.ravel()
         return nodes, self.ops.cell_to_node.tocsr()[nodes]
 
+    @cached_property
+    def base_strain_rows(self) -> tuple:
+        """``(ec, en)`` (:mod:`granflow.operators`) restricted to the bottom-row cells and nodes:
+        the wall strain rate of :func:`granflow.physics.wall_friction.base_strain_rate_norm`."""
+        cells = np.zeros(self.grid.cell_shape, dtype=bool)
+        cells[:, 0] = True
+        return self.ops.ec.tocsr()[cells.ravel()], self.ops.en.tocsr()[self.base_node_rows[0]]
+
     @property
     def indicator(self) -> bool:
         """True with the material-indicator surface (:class:`Surface`)."""

@@ -293,7 +293,7 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
         return eta_n
     S_wall = np.array(S, dtype=float).reshape(nx, nz)
     if vel is not None:
-        S_wall[:, 0] = wf.base_strain_rate_norm(model.ops, vel)
+        S_wall[:, 0] = wf.base_strain_rate_norm(model.ops, vel, model.base_strain_rows)
     eta_wall = np.where(base, model.cell_viscosity(phi_e, p_wall.ravel(), S_wall.ravel(), base), eta_c)
     nodes, to_nodes = model.base_node_rows
     out = np.array(eta_n, dtype=float)

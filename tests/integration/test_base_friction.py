@@ -91,6 +91,8 @@ def test_base_shear_stress_is_the_yield_stress_at_the_wall(n_material):
     s_w = gamma * min(n_material, 0.5)  # u_1 / dz, u_1 = gamma min(h, dz / 2)
     S_wall = base_strain_rate_norm(model.ops, vel)
     assert np.allclose(S_wall, s_w, rtol=1e-12)
+    # the bottom-row operators the sweep uses give the same values, bit for bit
+    assert np.array_equal(base_strain_rate_norm(model.ops, vel, model.base_strain_rows), S_wall)
     dense = model.dense(st.phi, st.c)
     p = model.lithostatic_pressure(st.phi, st.c).ravel()
     if n_material < 0.5:
@@ -124,3 +126,14 @@ def test_option_defaults_and_refusal():
     assert Model(g, dp, surface="indicator", base_friction="centre").base_friction is BaseFriction.CENTRE
     with pytest.raises(GranflowInputError, match="base_friction"):
         Model(g, dp, base_friction="floor")
+
+
+def test_bottom_row_strain_rate_matches_the_whole_grid_one_on_random_velocities():
+    """The Picard sweep's bottom-row operators (Model.base_strain_rows) against the whole-grid
+    ec/en products, bit for bit, on a random velocity field with a no-slip base."""
+    g = Grid(nx=12, nz=7, Lx=0.12, Lz=0.07)
+    model = Model(g, make_closure("mu_i"))
+    vel = np.random.default_rng(3).normal(size=g.n_unknowns)
+    whole = base_strain_rate_norm(model.ops, vel)
+    assert whole.shape == (g.nx,)
+    assert np.array_equal(base_strain_rate_norm(model.ops, vel, model.base_strain_rows), whole)

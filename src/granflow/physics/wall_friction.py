@@ -108,7 +108,7 @@ def base_shear_stress(model, vel, eta_n) -> np.ndarray:
     return (np.asarray(eta_n, dtype=float) * (model.ops.en @ np.asarray(vel, dtype=float)))[nodes]
 
 
-def base_strain_rate_norm(ops, vel) -> np.ndarray:
+def base_strain_rate_norm(ops, vel, rows=None) -> np.ndarray:
     """``|S|`` at the base of each bottom cell [s^-1], shape ``(nx,)``.
 
     As :meth:`granflow.operators.Operators.strain_rate_norm` but with ``S_xz^2`` averaged over the
@@ -117,10 +117,17 @@ def base_strain_rate_norm(ops, vel) -> np.ndarray:
     above: the centre's 4-node mean gives ``|S|`` half-way up the cell, ``1/sqrt(2)`` of the wall's
     in a film one cell thick with a stress-free top (basal friction ``sqrt(2) Z p``). Used by the
     ``"wall"`` base friction on a no-slip base (:func:`granflow.step.base_node_viscosity`).
+    ``rows``: ``(ec, en)`` restricted to the bottom cells and nodes
+    (:attr:`granflow.model.Model.base_strain_rows`; the same values, ~20x fewer operations at
+    128^2); the whole-grid operators otherwise.
     """
     vel = ops._velocity(vel)
     g = ops.grid
     nx, nz = g.cell_shape
-    sxx2 = (0.25 * (ops.ec @ vel) ** 2).reshape(nx, nz)[:, 0]
-    sxz2 = (0.25 * (ops.en @ vel) ** 2).reshape(g.node_shape)[:, 0]
+    if rows is None:
+        sxx2 = (0.25 * (ops.ec @ vel) ** 2).reshape(nx, nz)[:, 0]
+        sxz2 = (0.25 * (ops.en @ vel) ** 2).reshape(g.node_shape)[:, 0]
+    else:
+        sxx2 = 0.25 * (rows[0] @ vel) ** 2
+        sxz2 = 0.25 * (rows[1] @ vel) ** 2
     return np.sqrt(sxx2 + 0.5 * (sxz2[:-1] + sxz2[1:]))
