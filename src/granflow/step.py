@@ -28,8 +28,8 @@ from granflow.model_options import BaseFriction
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.material import C_ROW, material_window, packing
-from granflow.physics import wall_friction as wf
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
+from granflow.physics import wall_friction as wf
 from granflow.solvers import SaddleHints
 
 
@@ -131,7 +131,7 @@ class Explicit:
     iterate starts at ``u^n``); None if neither needs them."""
     strain: object = None
     """``|S|`` on the dense cells (:meth:`granflow.operators.Operators.strain_rate_on`), where the
-    closure is evaluated; None: the whole-grid :meth:`~granflow.operators.Operators.strain_rate_norm`."""
+    closure is evaluated (set by :func:`explicit_stage`)."""
 
 
 def band_edge(ops, keep) -> tuple:
@@ -317,10 +317,10 @@ def base_nodes(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n, vel
 def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
     """``|S|`` of a Picard sweep [s^-1]: on a Coulomb base with the slip left out of the bottom
     cells (:func:`granflow.physics.wall_friction.strain_rate_norm`), else on the dense cells only
-    (``ex.strain``; where the closure and the base friction read it) or everywhere."""
+    (``ex.strain``; where the closure and the base friction read it)."""
     if model.wall_friction is not None:
         return wf.strain_rate_norm(model, u_k, share)
-    return model.ops.strain_rate_norm(u_k) if ex.strain is None else ex.strain(u_k)
+    return ex.strain(u_k)
 
 
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
