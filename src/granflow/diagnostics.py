@@ -37,6 +37,15 @@ terms above and ``err_gas`` the sum of the four gas terms of
 :class:`granflow.physics.coupling.GasPowers` (backward Euler, cells turned ambient,
 transport/compression, diffusion); the last integral is round-off (``Grad = -Div^T``) and is kept
 in :attr:`EnergyBudget.numerical` as ``pressure_work_mismatch`` so that the terms sum to ``err``.
+
+Open boundaries (:mod:`granflow.physics.outflow`, :mod:`granflow.physics.inflow`): the kinetic,
+potential and gas energy the grains carry out of the box, ``E_out``, what a source puts in,
+``E_in``, and the work of the source's prescribed velocity ``W_src = int P_src dt`` are physical
+terms, ``err = [...](t) - [...](0) + int (...) dt + E_out - E_in - W_src``; the four mechanical
+terms are those of the step without the exchange (the inertia and gravity terms add back what the
+outflow took after the step, the gravity term what the source's refill before the step added to
+``E_p``; the refill's kinetic energy is in the step's t^n inertia), so they still sum to ``err``, and the released potential energy
+leaves ``E_p,out`` and ``E_p,in`` out.
 """
 from __future__ import annotations
 
@@ -297,6 +306,22 @@ class EnergyBudget:
     """``int W_f dt`` from the momentum rows, ``-dV u . Grad p_f`` [J m^-1]."""
     pressure_work_gas: float = 0.0
     """``int W_f dt`` from the gas rows, ``dV sum p_f Div u`` [J m^-1]."""
+    outflow_mechanical: float = 0.0
+    """Kinetic plus potential energy carried out through an outflow wall [J m^-1]
+    (:mod:`granflow.physics.outflow`)."""
+    outflow_potential: float = 0.0
+    """Its potential part [J m^-1] (not released: :attr:`released` leaves it out)."""
+    outflow_gas: float = 0.0
+    """Gas energy carried out through an outflow wall [J m^-1]."""
+    inflow_mechanical: float = 0.0
+    """Kinetic plus potential energy a source put in with its grains [J m^-1]
+    (:mod:`granflow.physics.inflow`)."""
+    inflow_potential: float = 0.0
+    """Its potential part [J m^-1] (not released: :attr:`released` leaves it out)."""
+    inflow_gas: float = 0.0
+    """Gas energy a source put in [J m^-1]."""
+    source_work: float = 0.0
+    """``int P_src dt``, the work of a source's prescribed velocity [J m^-1]."""
 
     @classmethod
     def start(cls, model, state) -> EnergyBudget:
@@ -319,8 +344,23 @@ class EnergyBudget:
         self.e_p0 -= jump
         self.numerical["backward_euler"] -= dt * report.inertia_dissipation
         self.numerical["advection"] -= dt * report.advection_power
-        self.numerical["inertia_transport"] += HALF * dV * float((rho_new - rho_used) @ (state.vel ** 2))
-        self.numerical["gravity_transport"] += e_p - self.e_p + jump + dt * report.gravity_power
+        out, put_in = getattr(report, "outflow", None), getattr(report, "inflow", None)
+        out_k, out_p, out_1 = (0.0, 0.0, 0.0) if out is None else (out.kinetic, out.potential, out.gas)
+        in_k, in_p, in_1 = (0.0, 0.0, 0.0) if put_in is None else (put_in.kinetic, put_in.potential, put_in.gas)
+        self.outflow_mechanical += out_k + out_p
+        self.outflow_potential += out_p
+        self.outflow_gas += out_1
+        self.inflow_mechanical += in_k + in_p
+        self.inflow_potential += in_p
+        self.inflow_gas += in_1
+        self.source_work += dt * getattr(report, "source_power", 0.0)
+        # the exchange, added back to the step's terms: an outflow empties cells after the step
+        # (E_k and E_p of the record lack it); a source refills before it, which the step's
+        # t^n inertia already holds (backward Euler), so only its potential energy is added back
+        out_p = out_p - in_p
+        self.numerical["inertia_transport"] += (HALF * dV * float((rho_new - rho_used) @ (state.vel ** 2))
+                                                + out_k)
+        self.numerical["gravity_transport"] += e_p - self.e_p + jump + dt * report.gravity_power + out_p
         self.dissipated_yield += dt * report.dissipation_yield
         self.dissipated_dilatancy += dt * report.dissipation_dilatancy
         gas = getattr(report, "gas", None)
@@ -343,8 +383,10 @@ class EnergyBudget:
 
     @property
     def released(self) -> float:
-        """Released potential energy ``E_p(0) - E_p(t)`` [J m^-1]."""
-        return self.e_p0 - self.e_p
+        """Released potential energy ``E_p(0) - E_p(t) - E_p,out + E_p,in`` [J m^-1] (``E_p,out``
+        the potential energy carried out through an outflow wall, ``E_p,in`` that a source put in;
+        0 in a closed box)."""
+        return self.e_p0 - self.e_p - self.outflow_potential + self.inflow_potential
 
     @property
     def released_gas(self) -> float:
@@ -356,20 +398,23 @@ class EnergyBudget:
         """``err = [E_k + E_p + E_1](t) - [E_k + E_p + E_1](0) + int (D - P_inj) dt`` [J m^-1]
         (< 0: numerical dissipation; ``E_1 = D_darcy = P_inj = 0`` for the dry model)."""
         return (self.e_k + self.e_p + self.e_1 - self.e_k0 - self.e_p0 - self.e_10
-                + self.dissipated - self.injected)
+                + self.dissipated - self.injected + self.outflow_mechanical + self.outflow_gas
+                - self.inflow_mechanical - self.inflow_gas - self.source_work)
 
     @property
     def residual_mechanical(self) -> float:
         """``E_k + E_p - (E_k + E_p)(0) + int (D_y + D_d - W_f^mom) dt`` [J m^-1]: the sum of the
         four mechanical numerical terms."""
         return (self.e_k + self.e_p - self.e_k0 - self.e_p0 + self.dissipated_yield
-                + self.dissipated_dilatancy - self.pressure_work_momentum)
+                + self.dissipated_dilatancy - self.pressure_work_momentum + self.outflow_mechanical
+                - self.inflow_mechanical - self.source_work)
 
     @property
     def residual_gas(self) -> float:
         """``E_1 - E_1(0) + int (D_darcy + W_f^gas - P_inj) dt`` [J m^-1]: the sum of the four gas
         numerical terms."""
-        return self.e_1 - self.e_10 + self.dissipated_darcy + self.pressure_work_gas - self.injected
+        return (self.e_1 - self.e_10 + self.dissipated_darcy + self.pressure_work_gas - self.injected
+                + self.outflow_gas - self.inflow_gas)
 
     @property
     def relative_residual(self) -> float:

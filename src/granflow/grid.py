@@ -68,7 +68,8 @@ class Side(Enum):
 
 
 class VelocityBC(Enum):
-    """Tangential velocity condition on a wall (the normal velocity is always zero: closed box)."""
+    """Tangential velocity condition on a wall (the normal velocity of the solve is always zero:
+    closed box; an ``OUTFLOW`` wall lets grains out through its absorbing column)."""
 
     NO_SLIP = "no_slip"
     """Tangential velocity zero on the wall (ghost value = -interior value, NUMERICS.md §8)."""
@@ -78,6 +79,9 @@ class VelocityBC(Enum):
     """Base only: the no-slip ghost, with the wall's shear stress capped at the Coulomb friction
     ``mu_w p_wall`` (the layer slides when the interior would carry more;
     :mod:`granflow.physics.wall_friction`)."""
+    OUTFLOW = "outflow"
+    """East wall only: free-slip in the solve, and the last column of cells absorbs the grains
+    that reach it -- they leave the box (:mod:`granflow.physics.outflow`)."""
 
 
 @dataclass(frozen=True)
@@ -87,10 +91,10 @@ class VelocityBCs:
     Attributes
     ----------
     west, east, bottom, top : VelocityBC or str
-        Condition on each wall; strings ``"no_slip"`` / ``"free_slip"`` / ``"coulomb"`` are
-        converted. Defaults: no-slip base, free-slip side walls and top. ``"coulomb"`` is a base
+        Condition on each wall; strings ``"no_slip"`` / ``"free_slip"`` / ``"coulomb"`` /
+        ``"outflow"`` are converted. Defaults: no-slip base, free-slip side walls and top. ``"coulomb"`` is a base
         condition only (its friction coefficient is :class:`granflow.model.Model`'s
-        ``wall_friction``).
+        ``wall_friction``), ``"outflow"`` an east-wall one.
     """
 
     west: VelocityBC = VelocityBC.FREE_SLIP
@@ -115,6 +119,10 @@ class VelocityBCs:
         for side in (Side.WEST, Side.EAST, Side.TOP):
             if getattr(self, side.value) is VelocityBC.COULOMB:
                 raise GranflowInputError(f"VelocityBCs: 'coulomb' is a base condition (bottom wall) only, "
+                                         f"got it for wall {side.value!r}")
+        for side in (Side.WEST, Side.BOTTOM, Side.TOP):
+            if getattr(self, side.value) is VelocityBC.OUTFLOW:
+                raise GranflowInputError(f"VelocityBCs: 'outflow' is an east-wall condition only, "
                                          f"got it for wall {side.value!r}")
 
     def kind(self, side: Side) -> VelocityBC:

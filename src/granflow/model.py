@@ -66,6 +66,9 @@ momentum advection, the gas block and the phi_loc neighbourhood all wrap in x; w
 gravity this is an infinite incline (steady uniform flows exist, issue 3 item 9c). The step
 reports the solid volume carried through the periodic face (:attr:`StepReport.wrapped_mass`).
 
+An outflow east wall (``bcs.east = "outflow"``) empties the last column after the transport
+(:mod:`granflow.physics.outflow`); the step reports what left (:attr:`StepReport.outflow`).
+
 The dry model keeps ``state.p_f`` untouched (zero). The fluidised model stores ``p_f^{n+1}``
 (zero in the ambient of t^n) and reports the gas energy terms
 (:class:`granflow.physics.coupling.GasPowers`) in :attr:`StepReport.gas`.
@@ -103,6 +106,8 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
 from granflow.operators import Operators
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
+from granflow.physics import inflow, outflow
+from granflow.physics.inflow import Source, SourceSide
 from granflow.physics.coupling import GasCoupling
 from granflow.model_coefficients import ClosureCoefficients
 from granflow.model_fields import FieldMaps
@@ -230,6 +235,9 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         Coulomb friction coefficient of the base ``mu_w = tan(delta_w)`` [-] (``walls.base_friction_deg``):
         needed by, and only allowed with, a ``"coulomb"`` base (``bcs.bottom``); the base shear
         stress is then ``min(interior, mu_w p_wall)`` (:mod:`granflow.physics.wall_friction`).
+    source : granflow.physics.inflow.Source, optional
+        A supply of grains through part of the west wall or of the base (``[inflow]``,
+        :mod:`granflow.physics.inflow`). Default none.
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -246,7 +254,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                  surface: Surface | str = Surface.INDICATOR,
                  base_friction: BaseFriction | str | None = None,
                  momentum_theta: float = mt.MC_THETA, gas_compressibility: str = "isothermal",
-                 wall_friction: float | None = None) -> None:
+                 wall_friction: float | None = None, source: Source | None = None) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -263,6 +271,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.gravity = (float(g[0]), float(g[1]))
         self.ops = Operators.build(grid, bcs)
         self.wall_friction = _wall_friction(self.ops.bcs, wall_friction)
+        self.outflow = self.ops.bcs.east is VelocityBC.OUTFLOW  # (granflow.physics.outflow)
         self.assembler = mom.SaddleAssembler(self.ops)
         self.eps = float(eps)
         self.ambient = ambient if isinstance(ambient, AmbientParams) else AmbientParams(**(ambient or {}))
@@ -310,6 +319,21 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                               else make_linear_solver(choice.value, grid=grid))
         self.gas_coupling = self._gas_coupling(gas, open_top, U_inj, gas_compressibility)
         self.gas = None if self.gas_coupling is None else self.gas_coupling.gas
+        self.source = self._source(source)
+
+    def _source(self, source: Source | None) -> Source | None:
+        if source is None:
+            return None
+        if not isinstance(source, Source):
+            raise GranflowInputError(f"Model: source must be a granflow.physics.inflow.Source, got {source!r}")
+        if not 0.0 < source.phi <= self.material.phi_max:
+            raise GranflowInputError(f"inflow.phi = {source.phi} must be in (0, phi_max = {self.material.phi_max}]")
+        if source.side is SourceSide.WEST and self.grid.periodic_x:
+            raise GranflowInputError("inflow.side = 'west': the grid is periodic in x, it has no west wall")
+        if self.outflow and source.side is SourceSide.BOTTOM and source.cells(self.grid)[-1].any():
+            raise GranflowInputError("inflow: a base source may not reach the last column, the outflow's")
+        source.cells(self.grid)  # a span that holds no cell is an error now, not at the first step
+        return source
 
     def _gas_coupling(self, gas, open_top: bool, U_inj, gas_compressibility) -> GasCoupling | None:
         """The pore-gas coupling of ``gas`` (None without a gas law, which allows neither an
@@ -356,6 +380,8 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
             state.c = self.material_of(state.phi)
         tim = {"assembly": 0.0, "solve": 0.0, "transport": 0.0}
         sweeps = 0
+        kept = (state.phi, state.c, state.p_f)
+        put_in = self._refill(state)
         try:
             ex = step.explicit_stage(self, state, dt, tim)
             im = step.implicit_stage(self, state, dt, ex, tim)
@@ -363,6 +389,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
             powers = step.energy_terms(self, state, dt, ex, im)
             tr = step.transport_stage(self, state, dt, im.u, tim, sweeps, im.dilation)
         except step.StepFailed as failure:
+            state.phi, state.c, state.p_f = kept  # (the refill too: it is booked with the step)
             return self._failed(dt, failure.message, failure.sweeps or sweeps, tim)
         gas_powers = None
         if ex.gas_sys is not None:
@@ -371,6 +398,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
             gas_powers = self.gas_coupling.powers(ex.gas_sys, im.p_f, im.u, phi_gas)
             tim["assembly"] += time.perf_counter() - t0
             state.p_f = im.p_f.reshape(self.grid.cell_shape)
+        out = self._absorb(state, tr, im.u, im.p_f if ex.gas_sys is not None else None)
         state.phi = tr.phi
         if tr.c is not None:
             state.c = tr.c
@@ -387,7 +415,30 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
             added_mass=b.added_mass, max_phi_before_clip=b.max_before, min_phi_before_clip=b.min_before,
             timings=tim, gas=gas_powers, wrapped_mass=tr.wrapped, linear_iterations=im.krylov,
             limited_mass=tr.held_back, solve_density=im.rho_k if im.flux_div is not None else None,
-            **powers)
+            outflow=out, inflow=put_in, **powers)
+
+    def _absorb(self, state: State, tr, u, p_f):
+        """An outflow east wall empties its column after the transport (in ``tr``, and
+        ``state.p_f`` if ``p_f`` is given); returns what left (:mod:`granflow.physics.outflow`)."""
+        if not self.outflow:
+            return outflow.NOTHING
+        tr.phi, tr.c, pf_new, out = outflow.absorb(self, tr.phi, tr.c, u, p_f)
+        if p_f is not None:
+            state.p_f = pf_new.reshape(self.grid.cell_shape)
+        return out
+
+    def _refill(self, state: State):
+        """A source that is on refills its cells at the start of the step (in ``state``, new
+        arrays); returns what that put in (:mod:`granflow.physics.inflow`)."""
+        if self.source is None or not self.source.active(state.t):
+            return outflow.NOTHING
+        p_f = state.p_f if self.gas_coupling is not None else None
+        after = inflow.refill(self.source, self.grid, state.phi, state.c, p_f)
+        put_in = outflow.exchange(self, (state.phi, state.c, p_f), after, state.vel).negated()
+        state.phi, state.c = after[0], after[1]
+        if p_f is not None:
+            state.p_f = after[2]
+        return put_in
 
     @staticmethod
     def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:

@@ -14,6 +14,7 @@ from pydantic import Field, field_validator
 
 from granflow.params import Params
 from granflow.physics.coupling import GasPowers
+from granflow.physics.outflow import NOTHING, Absorbed
 
 DEFAULT_GRAVITY = (0.0, -9.81)
 """Gravity (g_x, g_z) [m s^-2]."""
@@ -238,6 +239,14 @@ class StepReport:
     """Periodic grid: solid volume per unit width [m^2] carried in +x through the periodic
     x-face 0 by the transport of the step (0 for a closed box); the energy budget uses it to
     follow the potential energy across the period."""
+    outflow: Absorbed = NOTHING
+    """What an outflow east wall took out of the box in the step (solid volume [m^2], kinetic,
+    potential and gas energy [J m^-1]; :mod:`granflow.physics.outflow`)."""
+    inflow: Absorbed = NOTHING
+    """What a source put into the box in the step (the same quantities, positive when added;
+    :mod:`granflow.physics.inflow`)."""
+    source_power: float = 0.0
+    """Power of the source's prescribed velocity, ``dV sum lambda (u_in - u) u`` [W m^-1]."""
 
     @property
     def failed(self) -> bool:

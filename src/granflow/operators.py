@@ -61,9 +61,11 @@ import scipy.sparse as sp
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side, VelocityBC, VelocityBCs
 
-GHOST_SIGN = {VelocityBC.NO_SLIP: -1.0, VelocityBC.FREE_SLIP: 1.0, VelocityBC.COULOMB: -1.0}
+GHOST_SIGN = {VelocityBC.NO_SLIP: -1.0, VelocityBC.FREE_SLIP: 1.0, VelocityBC.COULOMB: -1.0,
+              VelocityBC.OUTFLOW: 1.0}
 """Ghost tangential velocity = sign * first interior value, per wall condition (a Coulomb base has
-the no-slip ghost; its friction caps the base nodes' viscosity, :mod:`granflow.physics.wall_friction`)."""
+the no-slip ghost; its friction caps the base nodes' viscosity, :mod:`granflow.physics.wall_friction`;
+an outflow wall is free-slip in the solve, :mod:`granflow.physics.outflow`)."""
 
 WALL_NODE_WEIGHT = 0.5
 """Fraction of a wall node's control volume inside the box (a corner gets the square, 1/4)."""

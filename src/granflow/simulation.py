@@ -135,6 +135,11 @@ def _summarise(messages: list[str]) -> str:
     return "; ".join(text + (f" [x{n}]" if n > 1 else "") for text, n in kinds.values())
 
 
+LATER_BUDGET_FIELDS = ("outflow_mechanical", "outflow_potential", "outflow_gas", "inflow_mechanical",
+                       "inflow_potential", "inflow_gas", "source_work")
+"""Energy-budget fields a checkpoint written before they existed lacks (0 then: a closed box)."""
+
+
 @dataclass
 class RunTotals:
     """Running totals over all accepted steps of a run (restored by a restart)."""
@@ -147,6 +152,10 @@ class RunTotals:
     """Mass added by clipping phi to 0 [m^2]."""
     limited_mass: float = 0.0
     """Solid volume the transport's upper-bound limiter kept in donor cells [m^2]."""
+    outflow_mass: float = 0.0
+    """Solid volume that left through an outflow wall [m^2] (:mod:`granflow.physics.outflow`)."""
+    inflow_mass: float = 0.0
+    """Solid volume a source put in [m^2] (:mod:`granflow.physics.inflow`)."""
     max_phi_before_clip: float = -math.inf
     min_phi_before_clip: float = math.inf
     picard_iterations: int = 0
@@ -161,6 +170,8 @@ class RunTotals:
         self.clipped_mass += report.clipped_mass
         self.added_mass += report.added_mass
         self.limited_mass += report.limited_mass
+        self.outflow_mass += report.outflow.volume
+        self.inflow_mass += report.inflow.volume
         self.max_phi_before_clip = max(self.max_phi_before_clip, report.max_phi_before_clip)
         self.min_phi_before_clip = min(self.min_phi_before_clip, report.min_phi_before_clip)
         self.picard_iterations += report.picard_iterations
@@ -456,8 +467,9 @@ class Simulation:
                         raise GranflowInputError(f"checkpoint: {key} does not fit the grid")
                 elif isinstance(value, dict):
                     budget[f.name] = {k: float(scalars[f"{key}.{k}"]) for k in value}
-                elif isinstance(value, (int, float)):
-                    budget[f.name] = type(value)(scalars[key])
+                elif isinstance(value, (int, float)):  # (fields added later start from their default)
+                    budget[f.name] = type(value)(scalars[key] if f.name not in LATER_BUDGET_FIELDS
+                                                 else scalars.get(key, f.default))
             # a total added after the checkpoint was written restarts from its default
             totals = RunTotals(**{f.name: type(f.default)(scalars.get(f"totals.{f.name}", f.default))
                                   for f in fields(RunTotals)})

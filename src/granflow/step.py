@@ -25,6 +25,7 @@ import scipy.sparse.linalg as spla
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
 from granflow.model_options import BaseFriction
+from granflow.physics import inflow
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.material import C_ROW, material_window, packing
@@ -132,6 +133,8 @@ class Explicit:
     strain: object = None
     """``|S|`` on the dense cells (:meth:`granflow.operators.Operators.strain_rate_on`), where the
     closure is evaluated (set by :func:`explicit_stage`)."""
+    source: object = None
+    """:class:`granflow.physics.inflow.SourceTerms` of a source that is on, else None."""
 
 
 def band_edge(ops, keep) -> tuple:
@@ -194,6 +197,11 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     else:
         adv = mom.momentum_advection(model.ops, state.vel, model.advection)
         rhs_u = rho_n * (state.vel / dt - adv) + f_g
+    source = None
+    if model.source is not None and model.source.active(state.t):  # the supply's velocity, penalised
+        source = inflow.source_terms(model.source, model.grid, model.material.rho_s, dt)
+        drag = drag + source.penalty
+        rhs_u = rhs_u + source.penalty * source.target
     thin, p_fric = None, None
     if model.indicator:
         thin = dense & (np.ravel(state.c) < C_ROW)
@@ -206,6 +214,8 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
         if model.indicator:
             wet, gas_phi = dense & ~thin, packing(state.c, phi)
             factor = model.gas_face_factor(state.c, gas_phi)
+        if source is not None:  # p_f = 0 in a source's cells (granflow.physics.inflow)
+            wet = wet & ~source.cells
         try:
             gas_sys = model.gas_coupling.prepare(gas_phi, state.p_f, state.vel, dt, wet, factor)
         except GranflowInputError as err:
@@ -220,7 +230,8 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
-                    band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.ops.strain_rate_on(dense))
+                    band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.ops.strain_rate_on(dense),
+                    source=source)
 
 
 def hint_viscosity(model, eta) -> np.ndarray:
@@ -323,6 +334,16 @@ def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
     return ex.strain(u_k)
 
 
+def initial_free(ex: Explicit, dense) -> tuple[np.ndarray, np.ndarray | None]:
+    """The active set's start: every dense cell is active (p < 0 frees it) but the thin cells of
+    the indicator surface and a source's cells, which never get a row (the second mask; None if
+    there are none)."""
+    fixed = ex.thin
+    if ex.source is not None:
+        fixed = ex.source.cells & dense if fixed is None else fixed | (ex.source.cells & dense)
+    return (np.zeros_like(dense) if fixed is None else fixed.copy()), fixed
+
+
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
     """Stage 2: the Picard loop (module docstring of :mod:`granflow.model`, step 2)."""
     g, ops = model.grid, model.ops
@@ -331,8 +352,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     u_k = state.vel.copy()
     p_k = np.maximum(state.p.ravel(), 0.0)
     p_f_new = state.p_f.ravel()
-    # every dense cell starts active (p < 0 frees it) but the thin cells of the indicator surface
-    free = np.zeros_like(dense) if ex.thin is None else ex.thin.copy()
+    free, fixed_free = initial_free(ex, dense)
     if model.linear_solver is not None:
         model.linear_solver.begin_step()
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
@@ -381,8 +401,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         eta_last = (eta_c, eta_n)
         to_free = act & (p_new < 0.0)
         to_act = free & (ops.div @ u_new < coef.b)
-        if ex.thin is not None:
-            to_act &= ~ex.thin
+        if fixed_free is not None:
+            to_act &= ~fixed_free
         n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
         changes += n_change
         free = (free & ~to_act) | to_free
@@ -408,6 +428,12 @@ def energy_terms(model, state, dt: float, ex: Explicit, im: Implicit) -> dict:
     """Stage 3: the step's powers [W m^-1] (:class:`granflow.model_options.StepReport`)."""
     ops, dV = model.ops, model.grid.cell_volume
     du = im.u - state.vel
+    # the penalty of a source sits in ex.drag (and its lambda u_in in the rhs): its work is the
+    # source's, not gravity's
+    src_power, src_drag = 0.0, 0.0
+    if ex.source is not None:
+        src_power = ex.source.power(dV, im.u)
+        src_drag = dV * float(ex.source.penalty @ (im.u * im.u))
     if im.flux_div is not None:
         adv_pow = mt.advection_energy_rate(model.material.rho_s, dV, im.flux_div[0], im.flux_div[1], im.u)
     else:
@@ -416,7 +442,8 @@ def energy_terms(model, state, dt: float, ex: Explicit, im: Implicit) -> dict:
                 dissipation_dilatancy=-dV * float(im.p_solve @ (ops.div @ im.u)),
                 inertia_dissipation=0.5 * dV * float(ex.rho_n @ (du * du)) / dt,
                 advection_power=adv_pow,
-                gravity_power=dV * float((ex.f_g - ex.drag * im.u) @ im.u))
+                gravity_power=dV * float((ex.f_g - ex.drag * im.u) @ im.u) + src_drag,
+                source_power=src_power)
 
 
 @dataclass

@@ -21,7 +21,10 @@ def test_watch_reports_new_contacts_once_and_ignores_the_initial_ones():
     phi[-1, 0] = 0.01                      # a film in the last column
     assert w.check(phi, 0.6, 0.3) == ["east_wall"]
     assert w.check(phi, 0.6, 0.4) == []    # once
-    assert w.attributes() == {"reached_east_wall": 1, "reached_east_wall_t": 0.3, "reached_lid": 0}
+    assert w.attributes() == {"reached_east_wall": 1, "reached_east_wall_t": 0.3, "reached_lid": 0,
+                              "reached_east_outflow": 0}
+    assert w.check(phi, 0.6, 0.5, outflow_cells=1e-4) == []          # a round-off trace left
+    assert w.check(phi, 0.6, 0.6, outflow_cells=0.5) == ["east_outflow"]
     full = WallWatch(periodic_x=False)
     layer = np.full((6, 4), 0.6)
     layer[:, -1] = 0.0

@@ -3,6 +3,7 @@ the pore-gas options, exact cell fractions of rectangles, and shared checks."""
 from __future__ import annotations
 
 import inspect
+import math
 from typing import Any
 
 import numpy as np
@@ -11,6 +12,7 @@ from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, VelocityBCs
 from granflow.model import Model
+from granflow.physics.inflow import Source
 from granflow.simulation import Simulation
 from granflow.state import State
 
@@ -60,6 +62,16 @@ def gas_problems(config: CaseConfig) -> list[tuple[str, str]]:
     return out
 
 
+def make_source(config: CaseConfig) -> Source | None:
+    """The :class:`granflow.physics.inflow.Source` of ``[inflow]``, or None (``side = "none"``)."""
+    f = config.inflow
+    if f.side == "none":
+        return None
+    return Source(side=f.side, lower=f.lower, upper=f.upper,
+                  phi=config.material.phi_max if f.phi is None else f.phi, speed=f.speed,
+                  start=f.start, stop=math.inf if f.stop is None else f.stop)
+
+
 def make_model(config: CaseConfig, **overrides: Any) -> Model:
     """The :class:`Model` of ``config``: grid, closure, gravity, walls, numerics, gas.
 
@@ -76,7 +88,7 @@ def make_model(config: CaseConfig, **overrides: Any) -> Model:
         consistent_gravity=n.consistent_gravity, advection=n.advection, phi_transport=n.phi_transport,
         gravity_blend_velocity=n.gravity_blend_velocity, linear_solver=n.linear_solver,
         isochoric_interface=n.isochoric_interface, surface=n.surface, base_friction=n.base_friction,
-        momentum_theta=n.momentum_theta, wall_friction=w.wall_friction,
+        momentum_theta=n.momentum_theta, wall_friction=w.wall_friction, source=make_source(config),
         **gas_options(config))
     unknown = set(overrides) - set(inspect.signature(Model).parameters)
     if unknown:

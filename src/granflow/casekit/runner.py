@@ -50,7 +50,8 @@ from granflow.casekit.step_clock import StepClock
 from granflow.config import CaseConfig
 from granflow.errors import GranflowInputError
 from granflow.output import load_checkpoint, write_json_atomic
-from granflow.output.fields import SI_KIND, UNIT_KINDS, BasalProbes, field_outputs, kinetic_energy_output
+from granflow.output.fields import (SI_KIND, UNIT_KINDS, BasalProbes, boundary_outputs, field_outputs,
+                                    kinetic_energy_output)
 from granflow.output.netcdf import git_revision
 from granflow.output.paths import check_directory
 from granflow.output.recorders import (
@@ -88,7 +89,9 @@ MASS0_KEY, WALL_S_KEY = "run.mass0", "run.wall_s"
 UNITS = {
     "runout_m": "m", "front_position": "m (t_s in s)", "final_height_at_wall": "m",
     "t_rest": "s", "rest_speed": "m s-1", "peak_speed": "m s-1", "mass_rel_error": "1",
-    "clipped_mass": "1 (fraction of the initial mass)", "limited_mass": "1 (fraction of the initial mass)", "phi_min": "1", "phi_max": "1",
+    "clipped_mass": "1 (fraction of the initial mass)", "limited_mass": "1 (fraction of the initial mass)",
+    "outflow_mass": "1 (fraction of the initial mass that left through an outflow wall)",
+    "inflow_mass": "1 (a source's supply, in fractions of the initial mass)", "phi_min": "1", "phi_max": "1",
     "energy_residual_rel": "1 (of energy_residual.reference, the run's largest energy source; null if negligible)",
     "energy": "J m-1",
     "wall_s": "s", "t_final": "s",
@@ -199,6 +202,7 @@ class CaseRun:
         sim, cfg, out = self.sim, self.config, self.config.output
         unit = self._si_unit
         outputs = {**field_outputs(sim.model, out.fields, unit), "kinetic_energy": kinetic_energy_output(unit),
+                   **boundary_outputs(sim.model, unit),
                    "x_front": front_output(self.threshold, unit), **self.probes.outputs(unit)}
         self.writer = NetCDFOutputWriter(
             sim.model, self.output_path, outputs, TimeInterval(out.interval),
@@ -389,10 +393,13 @@ class CaseRun:
             "final_height_at_wall": float(h[0]),
             "t_rest": rest.t_rest, "rest_speed": self.rest_speed, "peak_speed": rest.peak_speed,
             "stopped_at_rest": rest.stopped_at_rest,
-            "mass_rel_error": (mass + tot.clipped_mass - tot.added_mass - self.mass0) / self.mass0,
+            "mass_rel_error": ((mass + tot.clipped_mass - tot.added_mass + tot.outflow_mass - tot.inflow_mass
+                                - self.mass0) / (self.mass0 + max(tot.inflow_mass, 0.0))),
             "mass_change_rel": (mass - self.mass0) / self.mass0,
             "clipped_mass": tot.clipped_mass / self.mass0,
             "added_mass": tot.added_mass / self.mass0,
+            "outflow_mass": tot.outflow_mass / self.mass0,
+            "inflow_mass": tot.inflow_mass / self.mass0,
             "limited_mass": tot.limited_mass / self.mass0,
             "phi_min": float(st.phi.min()), "phi_max": float(st.phi.max()),
             "phi_max_before_clip": tot.max_phi_before_clip,
@@ -400,6 +407,8 @@ class CaseRun:
             "energy_residual_rel": energy["relative"],
             "energy_residual": energy,
             "energy": {"released": b.released, "released_gas": b.released_gas, "injected": b.injected,
+                       "outflow": b.outflow_mechanical + b.outflow_gas,
+                       "inflow": b.inflow_mechanical + b.inflow_gas, "source_work": b.source_work,
                        "dissipated": b.dissipated, "kinetic": b.e_k,
                        "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
@@ -433,7 +442,9 @@ def energy_residual(budget) -> dict[str, Any]:
     negligible (below :data:`ENERGY_REFERENCE_TOL` of the energy present: a layer at rest)."""
     sources = {"released potential energy": budget.released,
                "released gas energy": budget.released_gas,
-               "injected gas energy": budget.injected}
+               "injected gas energy": budget.injected,
+               "energy supplied by the source": sum(getattr(budget, k, 0.0) for k in
+                                                    ("inflow_mechanical", "inflow_gas", "source_work"))}
     name, value = max(sources.items(), key=lambda kv: kv[1])
     present = abs(budget.e_p0) + budget.e_k0 + budget.e_10 + abs(budget.injected)
     usable = value > ENERGY_REFERENCE_TOL * present and value > 0.0

@@ -155,6 +155,10 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
         out.append(("gas.law", f"{CASE} has no pore gas (use \"none\")"))
     if config.gas.compressibility != "isothermal":
         out.append(("gas.compressibility", f"{CASE} has no pore gas to make adiabatic"))
+    if config.inflow.side != "none":
+        out.append(("inflow.side", f"{CASE} is a homogeneous cell with no walls to feed (use \"none\")"))
+    if config.walls.east == "outflow":
+        out.append(("walls.east", f"{CASE} is a homogeneous cell with no walls (\"outflow\" has no meaning)"))
     inertial, phi_eq = equilibrium(config)
     if not config.numerics.ambient.phi_c < phi_eq <= config.material.phi_max:
         out.append(("setup.S", (f"|S| = {s.S} 1/s at p = {s.p} Pa gives I = {inertial:.4g} and "

@@ -113,6 +113,8 @@ MAX_SLOPE_DEG = 90.0
 OUTPUT_FIELDS = ("phi", "c", "u", "w", "p", "p_f", "S")
 """Cell-centred fields that can be written to the NetCDF output."""
 WallCondition = Literal["no_slip", "free_slip"]
+EastCondition = Literal["no_slip", "free_slip", "outflow"]
+"""The east wall's conditions: a wall's, or ``"outflow"`` (:mod:`granflow.physics.outflow`)."""
 BaseCondition = Literal["no_slip", "free_slip", "coulomb"]
 """The base's conditions: a wall's, or ``"coulomb"`` (friction ``walls.base_friction_deg``)."""
 MAX_FRICTION_DEG = 90.0
@@ -205,7 +207,9 @@ class WallsSection(Section):
     """``[walls]``: tangential velocity condition of each wall (the normal velocity is zero)."""
 
     west: WallCondition = Field("free_slip", description="wall x = 0 (symmetry plane when free_slip) [-]")
-    east: WallCondition = Field("free_slip", description="wall x = Lx [-]")
+    east: EastCondition = Field("free_slip", description='wall x = Lx; "outflow": the grains leave the box '
+                                'there (the last column absorbs them: free-slip in the solve, the volume '
+                                'and energy that leave counted in the budgets) [-]')
     bottom: BaseCondition = Field("no_slip", description='base z = 0; "coulomb": the grains slide on '
                                   'it once their shear stress reaches tan(base_friction_deg) p_wall [-]')
     top: WallCondition = Field("free_slip", description="lid z = Lz [-]")
@@ -312,6 +316,41 @@ class NumericsSection(Section):
     ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
 
 
+class InflowSection(Section):
+    """``[inflow]``: a supply of grains through part of the west wall or of the base
+    (:mod:`granflow.physics.inflow`); off unless ``side`` is set."""
+
+    side: Literal["none", "west", "bottom"] = Field(
+        "none", description='where the grains enter: "none" (no source), "west" (the west wall, over '
+        'lower <= z <= upper) or "bottom" (the base, over lower <= x <= upper) [-]')
+    lower: float = Field(0.0, ge=0, description="start of the source's span along its side [m]")
+    upper: float | None = Field(None, gt=0, description="end of the source's span along its side (needed "
+                                "with a source) [m]")
+    phi: float | None = Field(None, gt=0, description="solid fraction of the incoming grains, at most "
+                              "material.phi_max (default: material.phi_max) [-]")
+    speed: float | None = Field(None, gt=0, description="velocity of the incoming grains into the box "
+                                "(needed with a source) [m s^-1]")
+    start: float = Field(0.0, ge=0, description="the source is on from this time [s]")
+    stop: float | None = Field(None, gt=0, description="... until this time (default: the whole run) [s]")
+
+    @model_validator(mode="after")
+    def _complete(self) -> InflowSection:
+        if self.side == "none":
+            given = sorted(k for k in self.model_fields_set  # (an effective file repeats the defaults)
+                           if k != "side" and getattr(self, k) != type(self).model_fields[k].default)
+            if given:
+                raise ValueError(f"inflow.{given[0]} needs a source: set inflow.side (\"west\" or \"bottom\")")
+            return self
+        for key in ("upper", "speed"):
+            if getattr(self, key) is None:
+                raise ValueError(f'inflow.side = "{self.side}" needs inflow.{key}')
+        if not self.lower < self.upper:
+            raise ValueError(f"inflow.lower = {self.lower:g} must be below inflow.upper = {self.upper:g}")
+        if self.stop is not None and not self.start < self.stop:
+            raise ValueError(f"inflow.start = {self.start:g} must be before inflow.stop = {self.stop:g}")
+        return self
+
+
 class GasSection(Section):
     """``[gas]``: the pore-gas model; anything but ``law = "none"`` needs a Model with gas support."""
 
@@ -368,6 +407,7 @@ class CaseConfig(Section):
     time: TimeSection = Field(default_factory=TimeSection)
     numerics: NumericsSection = Field(default_factory=NumericsSection)
     gas: GasSection = Field(default_factory=GasSection)
+    inflow: InflowSection = Field(default_factory=InflowSection)
     output: OutputSection = Field(default_factory=OutputSection)
     setup: Section = Field(default_factory=EmptySetup)
 

@@ -43,6 +43,8 @@ PROBE_SPECS = {
 """Time series at the basal probes (``output.probes_x``)."""
 SERIES_SPECS = {
     "kinetic_energy": ("J m-1", "kinetic energy per unit width"),
+    "outflow_volume": ("m2", "solid volume per unit width that left through the outflow wall since t = 0"),
+    "inflow_volume": ("m2", "solid volume per unit width the source supplied since t = 0"),
     "x_front": ("m", f"front position: {dg.FRONT_DEFINITION} (attribute front_threshold_m; resolution dx)"),
 }
 UNIT_KINDS = ("length", "time", "speed", "pressure", "rate", "energy")
@@ -133,6 +135,20 @@ def kinetic_energy_output(unit: Callable[[str], str] = si_unit) -> Output:
     """The kinetic energy per unit width of the energy budget [J m-1], a time series."""
     units, long_name = SERIES_SPECS["kinetic_energy"]
     return Output(lambda sim: np.float64(sim.budget.e_k), VariableSpec((TIME_DIM,), unit(units), long_name))
+
+
+def boundary_outputs(model, unit: Callable[[str], str] = si_unit) -> dict[str, Output]:
+    """The cumulative solid volumes through the open boundaries the model has [m2], time series
+    (``outflow_volume``: an outflow east wall; ``inflow_volume``: a source; the run totals
+    :class:`granflow.simulation.RunTotals`)."""
+    out = {}
+    for name, present, total in (("outflow_volume", getattr(model, "outflow", False), "outflow_mass"),
+                                 ("inflow_volume", getattr(model, "source", None) is not None, "inflow_mass")):
+        if present:
+            units, long_name = SERIES_SPECS[name]
+            out[name] = Output(lambda sim, total=total: np.float64(getattr(sim.totals, total)),
+                               VariableSpec((TIME_DIM,), unit(units), long_name))
+    return out
 
 
 class BasalProbes:

@@ -230,7 +230,8 @@ class WallContactRecorder:
         if self.watch is None:
             self.watch = WallWatch(sim.model.grid.periodic_x)
         self.watch.periodic_x = sim.model.grid.periodic_x  # (a restored watch does not know it)
-        new = self.watch.check(sim.state.phi, sim.model.material.phi_max, t)
+        out = sim.totals.outflow_mass / sim.model.grid.cell_volume
+        new = self.watch.check(sim.state.phi, sim.model.material.phi_max, t, outflow_cells=out)
         for side in new:
             _warn(self.warnings, warning_text(side, t, self.time_unit, self.length_key))
         if new or self.writer.n_records == 0 or self._rewrite:  # the flags exist from the first record on
@@ -268,12 +269,14 @@ class WallContactRecorder:
             return
         last = float(scalars[f"{self.KEY}.last_t"])
         self._last_t = -np.inf if last == NOT_REACHED else last
-        if any(int(scalars[f"{self.KEY}.initial.{side}"]) < 0 for side in SIDES):
+        # (a side added after the checkpoint was written: not touched, not reached)
+        initial = {side: int(scalars.get(f"{self.KEY}.initial.{side}", 0)) for side in SIDES}
+        if any(v < 0 for v in initial.values()):
             return  # no record had been checked: nothing to keep
         self.watch = WallWatch(periodic_x=False)  # set from the grid at the next record
-        self.watch.initial = {side for side in SIDES if int(scalars[f"{self.KEY}.initial.{side}"]) == 1}
+        self.watch.initial = {side for side in SIDES if initial[side] == 1}
         for side in SIDES:
-            t = float(scalars[f"{self.KEY}.first.{side}"])
+            t = float(scalars.get(f"{self.KEY}.first.{side}", NOT_REACHED))
             if t != NOT_REACHED:
                 self.watch.first[side] = t
                 self.warnings.append(warning_text(side, t, self.time_unit, self.length_key))
