@@ -329,9 +329,12 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         if not 0.0 < source.phi <= self.material.phi_max:
             raise GranflowInputError(f"inflow.phi = {source.phi} must be in (0, phi_max = {self.material.phi_max}]")
         if source.side is SourceSide.WEST and self.grid.periodic_x:
-            raise GranflowInputError("inflow.side = 'west': the grid is periodic in x, it has no west wall")
+            raise GranflowInputError("inflow.side = 'west': the grid is periodic in x (grid.periodic_x), it has "
+                                     "no west wall; use a base source")
         if self.outflow and source.side is SourceSide.BOTTOM and source.cells(self.grid)[-1].any():
-            raise GranflowInputError("inflow: a base source may not reach the last column, the outflow's")
+            raise GranflowInputError(f"inflow.upper = {source.upper:g}: a base source may not reach the last "
+                                     f"column, the outflow's (keep the cell centres below x = "
+                                     f"{self.grid.xc[-1]:g}, i.e. upper < {self.grid.xc[-1]:g})")
         source.cells(self.grid)  # a span that holds no cell is an error now, not at the first step
         return source
 
@@ -414,7 +417,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
             n_negative_Z=im.n_negative_Z, cfl=tr.cfl, clipped_mass=b.clipped_mass,
             added_mass=b.added_mass, max_phi_before_clip=b.max_before, min_phi_before_clip=b.min_before,
             timings=tim, gas=gas_powers, wrapped_mass=tr.wrapped, linear_iterations=im.krylov,
-            limited_mass=tr.held_back, solve_density=im.rho_k if im.flux_div is not None else None,
+            limited_mass=tr.held_back, solve_density=im.rho_k,
             outflow=out, inflow=put_in, **powers)
 
     def _absorb(self, state: State, tr, u, p_f):

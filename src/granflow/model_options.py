@@ -232,9 +232,10 @@ class StepReport:
     linear_iterations: int = 0
     """Krylov iterations summed over the Picard sweeps (0 with the direct solver)."""
     solve_density: np.ndarray | None = None
-    """Face inertia used by the final solve of a step with the consistent momentum transport
-    (``m_k``, [kg m^-3]; None: the inertia at t^n); the energy budget's inertia-transport term
-    is ``(m^{n+1} - m_k) |u^{n+1}|^2 dV / 2``."""
+    """Face inertia used by the final solve of the step [kg m^-3]: ``m_k`` with the consistent
+    momentum transport, else the inertia at t^n (after a source's refill; None: a report built
+    without it, the budget then uses the inertia of the previous record); the energy budget's
+    inertia-transport term is ``(m^{n+1} - m_k) |u^{n+1}|^2 dV / 2``."""
     wrapped_mass: float = 0.0
     """Periodic grid: solid volume per unit width [m^2] carried in +x through the periodic
     x-face 0 by the transport of the step (0 for a closed box); the energy budget uses it to

@@ -52,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+from granflow import diagnostics as dg
 from granflow.casekit import preparation as prep
 from granflow.casekit.runner import CaseRun
 from granflow.config import CaseConfig, load_case
@@ -102,6 +103,8 @@ examples' 0.02 s caught its under-pressure on single records)."""
 FIT_WINDOW_H0 = (0.5, 1.5)
 """Front travel [H0] over which its constant-velocity phase is fitted (0.2-0.6 m here: straight in
 both runs; not a fraction of the final run-out, which a one-cell distal tongue makes jump)."""
+QUANTILES = (0.5, 0.9, 0.99)
+"""Mass fractions of the deposit's quantile fronts (``x_quantile_m``)."""
 G = 9.81
 RUN_DIR = Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "granflow_roche"
 CHANNEL_JSON, FIG_FRONT, FIG_PRESSURE = HERE / "channel.json", HERE / "front.png", HERE / "basal_pressure.png"
@@ -126,6 +129,13 @@ def read_channel(directory: Path) -> dict:
         out = {"t_s": ds["time"].values.astype(float).tolist(),
                "x_front_m": ds["x_front"].values.astype(float).tolist(),
                "x_front_linear_m": ds.granflow.front_position(method="linear").values.astype(float).tolist()}
+        h = ds.granflow.deposit_thickness(float(ds["time"][-1])).values.astype(float)
+        x = ds["x"].values.astype(float)
+        dx = float(x[1] - x[0])
+        edges = np.concatenate([x - dx / 2, [x[-1] + dx / 2]])
+        # mass-quantile fronts of the last record (diagnostics.mass_quantile_front): robust to the
+        # one-cell distal tongue that makes the thickness-threshold front jump
+        out["x_quantile_m"] = {str(q): dg.mass_quantile_front(edges, h, q) for q in QUANTILES}
         if "probe_p_f" in ds:
             out.update(probe_x_m=ds["x_probe"].values.astype(float).tolist(),
                        probe_p_f_Pa=ds["probe_p_f"].values.astype(float).tolist(),
@@ -133,13 +143,15 @@ def read_channel(directory: Path) -> dict:
     return out
 
 
-def channel_run(state: str, dx: float = CHANNEL_DX, quick: bool = False) -> dict:
-    """One channel run of ``state`` ("fluidised" or "dry"); the numbers of channel.json."""
-    extra = channel_overrides(dx, quick)
+def channel_run(state: str, dx: float = CHANNEL_DX, quick: bool = False, more: tuple[str, ...] = (),
+                tag: str = "") -> dict:
+    """One channel run of ``state`` ("fluidised" or "dry"), with the overrides ``more`` (run
+    directory suffix ``tag``); the numbers of channel.json."""
+    extra = channel_overrides(dx, quick) + list(more)
     if quick and state == "fluidised":
         extra.append(f"setup.prep_max_time={QUICK_PREP}")
     cfg = load_case(CHANNEL_FILES[state], extra)
-    directory = RUN_DIR / f"{state}_{dx * 100:g}cm{'_quick' if quick else ''}"
+    directory = RUN_DIR / f"{state}_{dx * 100:g}cm{tag}{'_quick' if quick else ''}"
     s = CaseRun(cfg, directory, overwrite=True).run().summary
     d = s["case_diagnostics"]
     out = {"state": state, "dx_m": dx, "H0_m": d["H0_m"], "L0_m": d["L0_m"], "status": s["status"],

@@ -339,7 +339,8 @@ class InflowSection(Section):
             given = sorted(k for k in self.model_fields_set  # (an effective file repeats the defaults)
                            if k != "side" and getattr(self, k) != type(self).model_fields[k].default)
             if given:
-                raise ValueError(f"inflow.{given[0]} needs a source: set inflow.side (\"west\" or \"bottom\")")
+                raise ValueError(f"inflow.{given[0]} is set but inflow.side is \"none\" (no source): set "
+                                 f"inflow.side (\"west\" or \"bottom\") or remove {', '.join('inflow.' + k for k in given)}")
             return self
         for key in ("upper", "speed"):
             if getattr(self, key) is None:

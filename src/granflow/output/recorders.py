@@ -151,7 +151,7 @@ class RestDetector:
         Usually every step.
     hold : float, optional
         End the run (its stop time becomes the current time: it completes) once at rest for this
-        long [s].
+        long [s]; never before a source (:attr:`granflow.model.Model.source`) has stopped.
     """
 
     T_REST_KEY, PEAK_KEY = "run.t_rest", "run.peak_speed"
@@ -178,6 +178,9 @@ class RestDetector:
             self.t_rest = None
         elif self.t_rest is None:
             self.t_rest = sim.state.t
+        source = getattr(sim.model, "source", None)  # a supply still to come or running: not done
+        if source is not None and sim.state.t < source.stop:
+            return
         if self.hold is not None and self.t_rest is not None and sim.state.t - self.t_rest >= self.hold:
             sim.stop_time = sim.state.t  # at rest long enough: done() is now true, the run completes
             self.stopped_at_rest = True

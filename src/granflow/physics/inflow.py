@@ -24,10 +24,12 @@ source is on (``start <= t < stop``):
   potential and gas energy that come with it -- is counted as inflow in the budgets
   (:func:`granflow.physics.outflow.exchange`, with the opposite sign of an outflow).
 
-The supplied volume flux is therefore ``q = phi_in speed (upper - lower)`` [m^2 s^-1 of solid],
-to within the transport's face value of the packing, plus the first fill of the source cells.
-Into material already at ``phi_max`` the transport's upper-bound limiter can hold part of it back
-(the step's ``limited_mass``).
+The supplied volume flux is therefore ``q = phi_in speed n h`` [m^2 s^-1 of solid] (``n`` source
+cells of height, or width, ``h``: ``phi_in speed (upper - lower)`` when the span's ends are cell
+faces; :meth:`Source.flux`), to within the transport's face value of the packing, plus the first
+fill of the source cells. Into material already at ``phi_max`` the transport's upper-bound limiter
+can hold part of it back (the step's ``limited_mass``), and the refill *sets* the source cells:
+where they hold more grains than ``phi_in`` it takes grains out (a negative supply, booked as such).
 """
 from __future__ import annotations
 
@@ -101,10 +103,16 @@ class Source:
             mask[0, :] = (grid.zc >= self.lower) & (grid.zc <= self.upper)
         else:
             mask[:, 0] = (grid.xc >= self.lower) & (grid.xc <= self.upper)
+        along, start, length = (("z", grid.z0, grid.Lz) if self.side is SourceSide.WEST
+                                else ("x", grid.x0, grid.Lx))
+        if self.upper > start + length * (1 + 1e-12) or self.lower < start - length * 1e-12:
+            raise GranflowInputError(f"inflow.upper/lower: the span [{self.lower:g}, {self.upper:g}] ({along}) "
+                                     f"runs beyond the {self.side.value} side [{start:g}, {start + length:g}] "
+                                     f"of the box")
         if not mask.any():
-            along = "z" if self.side is SourceSide.WEST else "x"
-            raise GranflowInputError(f"inflow: the span [{self.lower:g}, {self.upper:g}] ({along}) holds no "
-                                     f"cell centre of the {self.side.value} side; widen it")
+            raise GranflowInputError(f"inflow.lower/upper: the span [{self.lower:g}, {self.upper:g}] ({along}) "
+                                     f"holds no cell centre of the {self.side.value} side (cells "
+                                     f"{length / (grid.nz if along == 'z' else grid.nx):g} wide); widen it")
         return mask
 
     def faces(self, grid) -> tuple[np.ndarray, np.ndarray]:
@@ -124,9 +132,12 @@ class Source:
         mask = grid.pack_velocity(u_m.astype(float), w_m.astype(float)) > 0.5
         return mask, grid.pack_velocity(u_t, w_t)
 
-    def flux(self) -> float:
-        """Supplied solid volume flux ``phi speed (upper - lower)`` [m^2 s^-1]."""
-        return self.phi * self.speed * (self.upper - self.lower)
+    def flux(self, grid) -> float:
+        """Supplied solid volume flux ``phi speed n h`` [m^2 s^-1]: ``n`` source cells of height
+        (west) or width (base) ``h`` -- ``phi speed (upper - lower)`` when the span's ends are
+        cell faces."""
+        h = grid.dz if self.side is SourceSide.WEST else grid.dx
+        return self.phi * self.speed * int(np.count_nonzero(self.cells(grid))) * h
 
 
 @dataclass(frozen=True)

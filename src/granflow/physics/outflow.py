@@ -2,9 +2,9 @@
 
 The east column of cells is an **absorbing column**. The implicit (u, p, p_f) solve sees a closed
 box with a free-slip east wall, as for ``"free_slip"``; after each step's transport, the grains
-that the step moved into the last column (``i = nx - 1``) are taken out of the box, with their
-pore gas: their solid volume is counted as outflow in the mass budget and the kinetic, potential
-and gas energy they carry as outflow in the energy budget
+that the step moved into the last column (``i = nx - 1``) are taken out of the box: their solid
+volume is counted as outflow in the mass budget and the kinetic and potential energy they carry
+as outflow in the energy budget
 (:class:`granflow.diagnostics.EnergyBudget`). The column is therefore empty at the start of every
 step, and the material upstream of it meets no wall: its east face is a free surface where
 p = p_f = 0 (a free overfall, the brink of a cliff). The flow that reaches the last column is
@@ -22,7 +22,10 @@ Budgets, per step (``dV = dx dz`` [m^2], column ``C`` = the cells ``(nx - 1, j)`
   by the faces whose inertia the removal lowers (``phi'`` the fields after the removal, ``rho_f``
   the model's face inertia :meth:`granflow.model.Model.inertia_density`);
 * ``E_1,out = E_1(phi, p_f) - E_1(phi', p_f')`` [J m^-1], the gas energy
-  (:func:`granflow.physics.pore_pressure.gas_energy`), ``p_f' = 0`` in the column.
+  (:func:`granflow.physics.pore_pressure.gas_energy`), ``p_f' = 0`` in the column. In a run this
+  is 0: the column is empty at the start of every step, so it has no gas row and its ``p_f`` is
+  already 0 (the grains' gas drains to the atmosphere at the brink); the term is there for
+  :func:`exchange`'s other use, a source's refill.
 
 An inflow (source) boundary is :mod:`granflow.physics.inflow`; it books what it puts in with
 :func:`exchange`, negated. A west outflow is not implemented.
