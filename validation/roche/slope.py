@@ -16,7 +16,7 @@ one-cell distal tongue), their fluidised/dry ratios, and whether a run reached t
 Slopes at and above the closure's static friction angle atan(sin delta) = 24.2 deg are left out:
 the dry flow would not stop there.
 
-Run:   python validation/roche/slope.py [--quick] [--slopes 0,5,10,15,20] [--dx 0.02]
+Run:   python validation/roche/slope.py [--quick] [--slopes 0,5,10,15,20] [--dx 0.02] [--report]
 Time:  ~25 min on one core (10 runs of 1-3 min); ``--quick``: 4 cm cells, 0.4 s, slopes 0 and 10.
 Output: slope.json and slope.png beside this script (not with --quick; ``--slopes`` replaces those
 slopes' rows and keeps the others), the table on stdout.
@@ -84,8 +84,16 @@ def table(rows: list[dict]) -> str:
             f"| {e['slope_deg']:g} | {f['runout_rest_m']:.3f} / {d['runout_rest_m']:.3f} | {_f(e['ratio_runout'])} | "
             f"{qf['0.9']:.3f} / {qd['0.9']:.3f} | {_f(e['ratio_x0.9'])} | {qf['0.99']:.3f} / {qd['0.99']:.3f} | "
             f"{_f(e['ratio_x0.99'])} | {_f(f['t_rest_s'], '.2f')} / {_f(d['t_rest_s'], '.2f')} | "
-            f"{'reached the end (lower bound)' if e['cut'] else 'clear'} |")
+            f"{_state(e, f, d)} |")
     return "\n".join(lines)
+
+
+def _state(e: dict, f: dict, d: dict) -> str:
+    """The row's caveat: a run cut by the channel's end, or still moving at its stop time."""
+    if e["cut"]:
+        return "reached the end (lower bound)"
+    moving = [r["state"] for r in (f, d) if r["t_rest_s"] is None]
+    return f"clear; {' and '.join(moving)} still moving at {f['t_final_s']:g} s (not final)" if moving else "clear"
 
 
 def _f(v, spec: str = ".3f") -> str:
@@ -110,6 +118,10 @@ def figure(rows: list[dict], path: Path = FIG_SLOPE) -> Path:
     ax[1].plot(s, [r["ratio_runout"] for r in e], "o-", color="k", label="run-out ratio")
     ax[1].plot(s, [r["ratio_x0.99"] for r in e], "s--", color="0.4", label="x_0.99 ratio")
     ax[1].axvline(12.0, ls=":", color="C2", label="gain drops above ~12 deg (Chedeville & Roche 2015)")
+    for r in rows:  # runs cut off while moving: their points are not final
+        if r["t_rest_s"] is None and r["state"] == "fluidised":
+            ax[1].annotate(f"still moving at {r['t_final_s']:g} s", (r["slope_deg"], 1.0), fontsize=8,
+                           ha="right", color="C3")
     ax[0].set(xlabel="slope [deg]", ylabel="distance beyond the gate [m]", title="granflow, Roche's channel, 2 cm cells")
     ax[1].set(xlabel="slope [deg]", ylabel="fluidised / dry", title="run-out gain (no digitised data)")
     for a in ax:
@@ -125,7 +137,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--quick", action="store_true", help="4 cm cells, 0.4 s, slopes 0 and 10")
     ap.add_argument("--slopes", default=None, help="comma-separated slope angles [deg]")
     ap.add_argument("--dx", type=float, default=channel.CHANNEL_DX, help="cells [m]")
+    ap.add_argument("--report", action="store_true", help="table and slope.png from the stored slope.json")
     args = ap.parse_args(argv)
+    if args.report:
+        rows = json.loads(SLOPE_JSON.read_text())["rows"]
+        figure(rows)
+        print(table(rows))
+        return rows
     slopes = (tuple(float(s) for s in args.slopes.split(",")) if args.slopes
               else QUICK_SLOPES if args.quick else SLOPES)
     dx = channel.QUICK_DX if args.quick else args.dx
