@@ -29,8 +29,11 @@ def test_ratios_of_synthetic_rows(slope):
     assert "reached the end" in slope.table(rows).splitlines()[-1]
 
 
-def test_quick_runs_on_a_slope_spread_further_than_on_the_flat(slope):
-    rows = {(s, st): slope.slope_run(st, s, 0.04, True) for s in (0.0, 10.0) for st in ("fluidised", "dry")}
+def test_quick_runs_on_a_slope_spread_further_than_on_the_flat(slope, capsys):
+    """``main(["--quick"])`` (the smoke run of tests/validation_smoke/test_validation_smoke.py)."""
+    out = slope.main(["--quick"])
+    assert "| 10 |" in capsys.readouterr().out
+    rows = {(r["slope_deg"], r["state"]): r for r in out}
     for st in ("fluidised", "dry"):
         flat, tilted = rows[(0.0, st)], rows[(10.0, st)]
         assert not flat["wall_contact"] and not tilted["wall_contact"]

@@ -132,6 +132,22 @@ def figure(rows: list[dict], path: Path = FIG_SLOPE) -> Path:
     return path
 
 
+def run(resolution: float = channel.CHANNEL_DX, quick: bool = False, slopes=None) -> list[dict]:
+    """The rows (fluidised and dry per slope) on cells ``resolution`` [m] (the validations'
+    common shape; ``quick``: 4 cm cells, 0.4 s, :data:`QUICK_SLOPES`)."""
+    slopes = slopes or (QUICK_SLOPES if quick else SLOPES)
+    dx = channel.QUICK_DX if quick else resolution
+    rows = []
+    for slope in slopes:
+        for state in ("fluidised", "dry"):
+            rows.append(slope_run(state, slope, dx, quick))
+            r = rows[-1]
+            print(f"slope {slope:g} {state}: run-out {r['runout_rest_m']:.3f} m, x_0.99 beyond the gate "
+                  f"{r['x_quantile_beyond_gate_m']['0.99']:.3f} m, rest {r['t_rest_s']}, walls "
+                  f"{r['wall_contact'] or 'clear'}, {r['wall_s']:.0f} s", flush=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="4 cm cells, 0.4 s, slopes 0 and 10")
@@ -144,17 +160,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         figure(rows)
         print(table(rows))
         return rows
-    slopes = (tuple(float(s) for s in args.slopes.split(",")) if args.slopes
-              else QUICK_SLOPES if args.quick else SLOPES)
+    slopes = tuple(float(s) for s in args.slopes.split(",")) if args.slopes else None
     dx = channel.QUICK_DX if args.quick else args.dx
-    rows = []
-    for slope in slopes:
-        for state in ("fluidised", "dry"):
-            rows.append(slope_run(state, slope, dx, args.quick))
-            r = rows[-1]
-            print(f"slope {slope:g} {state}: run-out {r['runout_rest_m']:.3f} m, x_0.99 beyond the gate "
-                  f"{r['x_quantile_beyond_gate_m']['0.99']:.3f} m, rest {r['t_rest_s']}, walls "
-                  f"{r['wall_contact'] or 'clear'}, {r['wall_s']:.0f} s", flush=True)
+    rows = run(dx, args.quick, slopes)
     if not args.quick:
         rows = merged(rows, dx)
         SLOPE_JSON.write_text(json.dumps({"dx_m": dx, "rows": rows, "ratios": ratios(rows)}, indent=1) + "\n")
