@@ -186,6 +186,7 @@ def test_bad_sources_are_refused_with_the_key():
     (["inflow.side=west", "inflow.upper=0.02"], "needs inflow.speed"),
     (["inflow.side=west", "inflow.upper=0.02", "inflow.speed=0.2", "inflow.phi=0.7"], "inflow.phi"),
     (["inflow.side=bottom", "inflow.upper=0.3", "inflow.speed=0.2", "inflow.lower=0.35"], "inflow.lower"),
+    (["inflow.side=west", "inflow.upper=0.02", "inflow.speed=0.2", "inflow.start=5"], "inflow.start"),
 ])
 def test_case_file_errors_name_the_key(tmp_path, capsys, sets, key):
     argv = ["run", str(ROOT / "examples" / "column_collapse_dry.toml"), "--out", str(tmp_path / "x"), "--quiet"]

@@ -55,6 +55,9 @@ def common_problems(cfg) -> list[tuple[str, str]]:
             and cfg.numerics.surface != "indicator"):
         out.append(("output.fields", f'"c" (the material fraction) exists only with numerics.surface = '
                                      f'"indicator" (got {cfg.numerics.surface!r})'))
+    if cfg.inflow.side != "none" and cfg.inflow.start >= cfg.time.stop_time:
+        out.append(("inflow.start", f"{cfg.inflow.start:g} s is not before time.stop_time = "
+                                    f"{cfg.time.stop_time:g} s: the source would never run"))
     repeated = sorted({f for f in cfg.output.fields if cfg.output.fields.count(f) > 1})
     if repeated:
         out.append(("output.fields", f"{repeated} given more than once"))
