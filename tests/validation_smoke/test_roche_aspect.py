@@ -1,0 +1,36 @@
+"""Roche's channel at other aspect ratios (issue 13 item 3a; validation/roche/aspect.py): the ratio
+table on synthetic rows with known answers, and ``main(["--quick"])`` at a = 1 (4 cm cells, 0.4 s):
+the fluidised column's bulk is ahead of the dry one's (its basal friction is carried by the gas),
+both clear of the channel's end."""
+from __future__ import annotations
+
+import pytest
+
+from _scripts import load_script
+
+
+@pytest.fixture(scope="module")
+def aspect():
+    return load_script("validation/roche/aspect.py", "roche_aspect", cached=True)
+
+
+def _row(state, a, dx, runout, x9, x99, rest=1.0):
+    return {"state": state, "a": a, "dx_m": dx, "L0_m": 0.4 / a, "runout_rest_m": runout, "t_rest_s": rest,
+            "wall_contact": {}, "beyond_gate_m": {"0.5": x9 / 2, "0.9": x9, "0.99": x99}}
+
+
+def test_ratios_of_synthetic_rows(aspect):
+    rows = [_row("fluidised", 1.0, 0.02, 2.0, 1.2, 1.8), _row("dry", 1.0, 0.02, 1.0, 0.6, 1.2),
+            _row("fluidised", 1.0, 0.01, 1.8, 1.1, 1.7, rest=None), _row("dry", 1.0, 0.01, 1.2, 0.55, 1.1)]
+    r = {e["dx_m"]: e for e in aspect.ratios(rows)}
+    assert r[0.02]["runout"] == pytest.approx(2.0) and r[0.02]["x0.9"] == pytest.approx(2.0)
+    assert r[0.02]["x0.99"] == pytest.approx(1.5) and not r[0.02]["moving"] and r[0.01]["moving"]
+    assert "still moving" in aspect.table(rows)
+
+
+def test_quick_run(aspect, capsys):
+    rows = {r["state"]: r for r in aspect.main(["--quick"])}
+    assert "| 1 | 4 |" in capsys.readouterr().out
+    f, d = rows["fluidised"], rows["dry"]
+    assert not f["wall_contact"] and not d["wall_contact"]
+    assert f["beyond_gate_m"]["0.9"] > d["beyond_gate_m"]["0.9"] > 0
