@@ -34,3 +34,9 @@ def test_quick_run(aspect, capsys):
     f, d = rows["fluidised"], rows["dry"]
     assert not f["wall_contact"] and not d["wall_contact"]
     assert f["beyond_gate_m"]["0.9"] > d["beyond_gate_m"]["0.9"] > 0
+
+
+def test_whole_cells(aspect):
+    """The gate is a cell face: L0 = 0.1 m on 4 cm cells is skipped, on 5 mm cells it is 20 cells."""
+    assert aspect.whole_cells(0.1, 0.005) and aspect.whole_cells(0.8, 0.01) and aspect.whole_cells(0.4, 0.04)
+    assert not aspect.whole_cells(0.1, 0.04) and not aspect.whole_cells(0.01, 0.02)

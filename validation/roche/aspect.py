@@ -14,7 +14,8 @@ about twice the dry ones (as quoted in issue 13; no data digitised here).
 Run:   python validation/roche/aspect.py [--quick] [--dx 0.02,0.01] [--aspects 0.5,1,2,4]
 Time:  ~10 min at 2 cm, ~30 min at 1 cm on one core; ``--quick``: 4 cm cells, 0.4 s, a = 1.
 Output: aspect.json beside this script (not with --quick; new levels and aspects are merged into
-the stored ones), the table on stdout.
+the stored ones after each aspect ratio; an (a, dx) whose L0 is not a whole number of cells is
+skipped), the table on stdout.
 """
 from __future__ import annotations
 
@@ -45,12 +46,21 @@ def aspect_run(state: str, a: float, dx: float, quick: bool) -> dict:
     return out
 
 
+def whole_cells(length: float, dx: float) -> bool:
+    """Whether ``length`` [m] is a whole number of cells ``dx`` [m] (to 1e-9 of a cell)."""
+    return abs(length / dx - round(length / dx)) < 1e-9 and round(length / dx) >= 1
+
+
 def run(resolution: float = channel.CHANNEL_DX, quick: bool = False, aspects=None) -> list[dict]:
     """The rows (fluidised and dry per aspect ratio) on cells ``resolution`` [m]."""
     aspects = aspects or ((1.0,) if quick else ASPECTS)
     dx = channel.QUICK_DX if quick else resolution
     rows = []
     for a in aspects:
+        if not quick and not whole_cells(H0 / a, dx):
+            print(f"a = {a:g} skipped at dx {dx * 100:g} cm: L0 = {H0 / a:g} m is not a whole number of "
+                  "cells (the gate is a cell face)", flush=True)
+            continue
         for state in ("fluidised", "dry"):
             rows.append(aspect_run(state, a, dx, quick))
             r = rows[-1]
@@ -107,10 +117,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     aspects = tuple(float(a) for a in args.aspects.split(",")) if args.aspects else None
     rows = []
     for dx in ([None] if args.quick else [float(v) for v in args.dx.split(",")]):
-        rows += run(dx, args.quick, aspects)
-    if not args.quick:
-        rows = merged(rows)
-        ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows)}, indent=1) + "\n")
+        for a in aspects or ASPECTS if not args.quick else (None,):
+            rows += run(dx, args.quick, None if a is None else (a,))
+            if not args.quick:  # stored after each aspect ratio: a later failure loses nothing
+                rows = merged(rows)
+                ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows)}, indent=1) + "\n")
     print(table(rows))
     return rows
 
