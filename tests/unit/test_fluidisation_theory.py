@@ -81,7 +81,49 @@ def test_expansion_time_is_the_shock_reaching_the_rising_surface():
     assert fl.expansion_time(MAT, phi0, H0, 0.9, G) == 0.0
 
 
+def kynch_settling(phi0: float, H0: float, n: int, t_end: float) -> tuple[float, float]:
+    """Independent check of :func:`fl.consolidation_time`: a first-order finite-volume solution of
+    the continuity-wave equation d_t phi + d_z (phi w(phi)) = 0 over a closed base, w = -U_mf(phi)
+    written out (Carman-Kozeny), each face's downward transfer limited by the room left below
+    (phi <= phi_max) and the content above. Returns (packed thickness, grains still in
+    suspension) [m] at ``t_end``."""
+    phi_max, dz = MAT.phi_max, H0 / n
+    phi = np.full(n + n // 4, 0.0)
+    phi[:n] = phi0
+    u_mf = lambda f: D**2 * (1 - f) ** 3 * RHO_S * G / (150 * ETA_F * np.maximum(f, 1e-12))  # noqa: E731
+    dt = 0.2 * dz / (3 * D**2 * RHO_S * G / (150 * ETA_F))  # the largest wave speed 3 U_mf(0) phi
+    t = 0.0
+    while t < t_end:
+        step = min(dt, t_end - t)
+        above = phi[1:]
+        down = np.minimum.reduce([above * u_mf(above) * step, (phi_max - phi[:-1]) * dz, above * dz])
+        down = np.maximum(down, 0.0)
+        phi[:-1] += down / dz
+        phi[1:] -= down / dz
+        t += step
+    packed = np.argmax(phi < phi_max * (1 - 1e-9)) * dz
+    return packed, float(phi.sum() * dz) - phi_max * packed
+
+
+def test_consolidation_time_is_the_compaction_front_meeting_the_falling_surface():
+    """Front at s t, s = phi0 U_mf/(phi_max - phi0); the suspended grains, phi0 H0 (1 - t/t_c):
+    against a finite-volume solution of the settling (an independent computation)."""
+    phi0, H0 = 0.585, 0.1
+    t_c = fl.consolidation_time(MAT, phi0, H0, G)
+    u_mf = fl.minimum_fluidisation_velocity(MAT, phi0, G)
+    assert t_c == pytest.approx(H0 / (phi0 * u_mf / (MAT.phi_max - phi0) + u_mf), rel=1e-12)
+    assert 0.4 < t_c < 0.5
+    for frac in (0.25, 0.5):
+        packed, suspended = kynch_settling(phi0, H0, 800, frac * t_c)
+        assert packed == pytest.approx(phi0 * u_mf / (MAT.phi_max - phi0) * frac * t_c, rel=0.02)
+        assert suspended == pytest.approx(phi0 * H0 * (1 - frac), rel=0.02)
+    assert fl.consolidation_time(MAT, 0.6, H0, G) == 0.0
+    assert fl.consolidation_time(MAT, 0.57, 2 * H0, G) == pytest.approx(2 * fl.consolidation_time(MAT, 0.57, H0, G))
+
+
 @pytest.mark.parametrize("call, key", [
+    (lambda: fl.consolidation_time(MAT, 0.57, -0.1, G), "height"),
+    (lambda: fl.consolidation_time(MAT, 1.5, 0.1, G), "phi0"),
     (lambda: fl.homogeneous_packing(MAT, 0.0, G), "U"),
     (lambda: fl.homogeneous_packing(MAT, math.nan, G), "U"),
     (lambda: fl.homogeneous_packing(MAT, 1e-3, 0.0), "g_z"),

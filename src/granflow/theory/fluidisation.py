@@ -39,6 +39,23 @@ fluidisation front (a shock, from the base where w = 0) climbs at
     t_s = H0 (phi0/phi_e - 1) / w0                                                  [s]
 
 independent of any numerical parameter (3.6 s for a 10 cm bed of 70 um beads at 1.3 U_mf).
+
+The reverse, **defluidisation of an expanded bed** (:func:`consolidation_time`): a bed at rest at
+phi0 < phi_max, its weight carried by the gas (p = 0), with the supply stopped (U = 0) over an
+impermeable base. Each layer settles at ``w = -U_mf(phi0)``; a compaction front (a shock between
+the packed bed at phi_max, at rest, and the suspension) climbs from the base at
+``s = phi0 U_mf(phi0) / (phi_max - phi0)`` while the surface falls at U_mf(phi0); they meet at
+
+    t_c = H0 (phi_max - phi0) / (phi_max U_mf(phi0))                                [s]
+
+In the packed layer the gas is at rest relative to the grains, so p_f is uniform there and the
+basal pore pressure is the weight of the grains still in suspension: with the grain volume
+phi_max s t already packed, ``p_f(0, t) = p_f(0, 0) (1 - t/t_c)`` -- a linear decay, not the
+exponential of pore-pressure diffusion, lasting t_c, proportional to H0 (diffusion: H0^2). This is
+the incompressible-gas limit: the storage term of the gas equation (``syst2b``; the gas expands as
+p_f falls) slows it by a relative amount of order
+``(1 - phi0) (p_f(0, 0)/p_atm) phi_max/(phi_max - phi0)`` (validation/roche/README.md,
+"Defluidisation", measured).
 """
 from __future__ import annotations
 
@@ -48,7 +65,7 @@ import numbers
 from granflow.errors import GranflowInputError
 
 __all__ = ["minimum_fluidisation_velocity", "homogeneous_packing", "expanded_packing",
-           "kinematic_wave_speed", "expansion_time", "CARMAN_KOZENY_CONSTANT"]
+           "kinematic_wave_speed", "expansion_time", "consolidation_time", "CARMAN_KOZENY_CONSTANT"]
 
 CARMAN_KOZENY_CONSTANT = 150.0
 """The 150 of the Carman-Kozeny (Ergun viscous) permeability, paper eq. ``beta`` [-]; must equal
@@ -144,3 +161,22 @@ def expansion_time(material, phi0: float, height: float, ratio: float, g_z: floa
         return 0.0
     u_mf = minimum_fluidisation_velocity(material, phi0, g_z)
     return height * (phi0 / phi_e - 1.0) / ((ratio - 1.0) * u_mf)
+
+
+def consolidation_time(material, phi0: float, height: float, g_z: float) -> float:
+    """Time [s] for an expanded bed of ``height`` [m] at packing ``phi0`` [-], its weight carried by
+    the gas and the supply stopped, to settle to ``material.phi_max`` (module docstring,
+    defluidisation; Kynch 1952): ``t_c = H0 (phi_max - phi0) / (phi_max U_mf(phi0))``, the basal
+    pore pressure falling linearly to 0 over t_c in the incompressible-gas limit; 0 for
+    ``phi0 >= phi_max`` (nothing settles: the pressure diffuses).
+
+    Raises
+    ------
+    GranflowInputError
+        Naming ``phi0`` (not in (0, 1)) or ``height`` (not finite and > 0).
+    """
+    phi0, height = _packing("phi0", phi0), _positive("height", height)
+    if phi0 >= material.phi_max:
+        return 0.0
+    u_mf = minimum_fluidisation_velocity(material, phi0, g_z)
+    return height * (material.phi_max - phi0) / (material.phi_max * u_mf)
