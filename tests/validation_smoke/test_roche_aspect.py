@@ -40,3 +40,15 @@ def test_whole_cells(aspect):
     """The gate is a cell face: L0 = 0.1 m on 4 cm cells is skipped, on 5 mm cells it is 20 cells."""
     assert aspect.whole_cells(0.1, 0.005) and aspect.whole_cells(0.8, 0.01) and aspect.whole_cells(0.4, 0.04)
     assert not aspect.whole_cells(0.1, 0.04) and not aspect.whole_cells(0.01, 0.02)
+
+
+def test_converged_uses_the_three_finest_levels(aspect):
+    """x_0.9 ratios 2.4, 2.2, 2.1 on 4, 2, 1 cm (first order towards 2.0, dry fixed): the 3-level
+    Richardson estimate is 2.0; a coarser fourth level is left out."""
+    rows = []
+    for dx, x9 in ((0.08, 9.0), (0.04, 2.4), (0.02, 2.2), (0.01, 2.1)):
+        rows += [_row("fluidised", 1.0, dx, 1.5, x9, 1.8), _row("dry", 1.0, dx, 1.0, 1.0, 1.2)]
+    (c,) = aspect.converged(rows)
+    assert c["dx_m"] == [0.04, 0.02, 0.01] and c["x0.9"]["method"] == "3-level Richardson"
+    assert c["x0.9"]["value"] == pytest.approx(2.0) and c["x0.9"]["order"] == pytest.approx(1.0)
+    assert c["runout"]["value"] == pytest.approx(1.5) and "| 1 | 4, 2, 1 |" in aspect.converged_table(rows)

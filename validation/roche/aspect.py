@@ -11,7 +11,7 @@ the levels the change of each ratio (the uncertainty quoted is the difference be
 finest levels: with two levels no order can be fitted). Roche (2012) reports fluidised run-outs
 about twice the dry ones (as quoted in issue 13; no data digitised here).
 
-Run:   python validation/roche/aspect.py [--quick] [--dx 0.02,0.01] [--aspects 0.5,1,2,4]
+Run:   python validation/roche/aspect.py [--quick] [--dx 0.02,0.01] [--aspects 0.5,1,2,4] [--report]
 Time:  ~10 min at 2 cm, ~30 min at 1 cm on one core; ``--quick``: 4 cm cells, 0.4 s, a = 1.
 Output: aspect.json beside this script (not with --quick; new levels and aspects are merged into
 the stored ones after each aspect ratio; an (a, dx) whose L0 is not a whole number of cells is
@@ -23,6 +23,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+from granflow.verification.convergence import mesh_estimate
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -99,6 +101,34 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+CONVERGED_KEYS = ("x0.9", "runout", "x0.99")
+LEVELS = 3
+"""Levels of the mesh estimate: the three finest cell sizes of each aspect ratio."""
+
+
+def converged(rows: list[dict]) -> list[dict]:
+    """Per aspect ratio with at least two levels: the mesh estimate of each fluidised/dry ratio
+    over its three finest levels (coarse to fine; granflow.verification.convergence.mesh_estimate:
+    3-level Richardson with Roache's GCI if monotone, the finest +- half the range if oscillatory,
+    first order with safety factor 3 on two levels)."""
+    out = []
+    for a in sorted({e["a"] for e in ratios(rows)}):
+        levels = sorted((e for e in ratios(rows) if e["a"] == a), key=lambda e: -e["dx_m"])[-LEVELS:]
+        if len(levels) < 2:
+            continue
+        out.append({"a": a, "dx_m": [e["dx_m"] for e in levels],
+                    **{k: mesh_estimate([e[k] for e in levels]) for k in CONVERGED_KEYS}})
+    return out
+
+
+def converged_table(rows: list[dict]) -> str:
+    lines = ["| a | levels [cm] | x_0.9 ratio | run-out ratio | x_0.99 ratio |", "|---|---|---|---|---|"]
+    for c in converged(rows):
+        cells = [f"{c[k]['value']:.3f} ± {c[k]['uncertainty']:.3f} ({c[k]['method']})" for k in CONVERGED_KEYS]
+        lines.append(f"| {c['a']:g} | {', '.join(f'{d * 100:g}' for d in c['dx_m'])} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def merged(rows: list[dict]) -> list[dict]:
     """``rows`` and the stored rows of aspect.json for the other (a, dx)."""
     if not ASPECT_JSON.exists():
@@ -113,7 +143,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--quick", action="store_true", help="4 cm cells, 0.4 s, a = 1")
     ap.add_argument("--dx", default="0.02", help="comma-separated cell sizes [m]")
     ap.add_argument("--aspects", default=None, help="comma-separated aspect ratios")
+    ap.add_argument("--report", action="store_true", help="the tables from aspect.json (no runs)")
     args = ap.parse_args(argv)
+    if args.report:
+        rows = json.loads(ASPECT_JSON.read_text())["rows"]
+        print(table(rows) + "\n\n" + converged_table(rows))
+        return rows
     aspects = tuple(float(a) for a in args.aspects.split(",")) if args.aspects else None
     rows = []
     for dx in ([None] if args.quick else [float(v) for v in args.dx.split(",")]):
@@ -121,8 +156,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
             rows += run(dx, args.quick, None if a is None else (a,))
             if not args.quick:  # stored after each aspect ratio: a later failure loses nothing
                 rows = merged(rows)
-                ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows)}, indent=1) + "\n")
-    print(table(rows))
+                ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows), "converged": converged(rows)},
+                                                  indent=1) + "\n")
+    print(table(rows) + "\n\n" + converged_table(rows))
     return rows
 
 
