@@ -12,7 +12,7 @@ finest levels: with two levels no order can be fitted). Roche (2012) reports flu
 about twice the dry ones (as quoted in issue 13; no data digitised here).
 
 Run:   python validation/roche/aspect.py [--quick] [--dx 0.02,0.01] [--aspects 0.5,1,2,4] [--report]
-Time:  ~10 min at 2 cm, ~30 min at 1 cm on one core; ``--quick``: 4 cm cells, 0.4 s, a = 1.
+Time:  ~10 min at 2 cm, ~30 min at 1 cm, ~2.5 h at 0.5 cm on one core; ``--quick``: 4 cm cells, 0.4 s, a = 1.
 Output: aspect.json beside this script (not with --quick; new levels and aspects are merged into
 the stored ones after each aspect ratio; an (a, dx) whose L0 is not a whole number of cells is
 skipped), the table on stdout.
