@@ -238,8 +238,7 @@ class Simulation:
         self.output_writers = ScheduledEntries("output_writers")
         self.checkpointers = ScheduledEntries("checkpointers")
         self.reports: list[StepReport] = []
-        """Every accepted step's report; all but the last without their per-face array
-        (``solve_density``, which the energy budget and callbacks read from the last one)."""
+        """Every accepted step's report; all but the last drop ``solve_density`` (memory)."""
         self.n_rejected = 0
         self.totals = RunTotals()
         self.budget = EnergyBudget.start(model, state)
@@ -328,7 +327,6 @@ class Simulation:
         t0 = time.perf_counter()
         self.totals.record(report)
         self.budget.record(report, self.state)
-        # earlier reports are kept without their per-face array (2180 steps at 512^2 held 9 GB)
         if self.reports and self.reports[-1].solve_density is not None:
             self.reports[-1] = replace(self.reports[-1], solve_density=None)
         self.reports.append(report)
