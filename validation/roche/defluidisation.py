@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import tempfile
 from pathlib import Path
@@ -54,6 +53,7 @@ from granflow.casekit.runner import CaseRun
 from granflow.config import load_case
 from granflow.materials import Material
 from granflow.theory import fluidisation as fl
+from granflow.verification import defluidisation as dfl
 
 HERE = Path(__file__).resolve().parent
 CASE_FILE = HERE.parents[1] / "examples" / "defluidisation_column.toml"
@@ -74,8 +74,6 @@ B0 = 1.0
 """Initial basal p_f / lithostatic [-]: the weight carried by the gas."""
 AMBIENT_CELLS = 2
 """Cells above the bed (the gas leaves through them)."""
-SERIES_HALF_LIFE = 0.4854
-"""Basal half-life of the rigid bed's lithostatic profile [tau_1] (granflow.verification.defluidisation)."""
 FIT_RANGE = (0.3, 0.8)
 """Window of p_f/p_f0 for the slope of the linear decay [-]."""
 STEPS = {"rigid": 150, "expanded": 1000}
@@ -97,10 +95,10 @@ def predictions(H: float, d: float, phi0: float) -> dict:
     rigid bed)."""
     m = material(d)
     D = float(m.gas_diffusivity(m.phi_max))
-    tau_1 = 4.0 * H**2 / (math.pi**2 * D)
+    tau_1 = dfl.first_time_constant(H, D)
     t_c = fl.consolidation_time(m, phi0, H, G)
     return {"D_m2_s": D, "D_phi0_m2_s": float(m.gas_diffusivity(phi0)), "tau_1_s": tau_1,
-            "series_half_life_s": SERIES_HALF_LIFE * tau_1, "t_c_s": t_c, "kynch_half_life_s": t_c / 2.0}
+            "series_half_life_s": dfl.basal_half_life(H, D), "t_c_s": t_c, "kynch_half_life_s": t_c / 2.0}
 
 
 def one_run(H: float, d: float, phi0: float, cells: int, quick: bool = False, p_atm_factor: float = 1.0) -> dict:
@@ -127,7 +125,7 @@ def one_run(H: float, d: float, phi0: float, cells: int, quick: bool = False, p_
     half = diag["half_life_s"]
     out = {"H_m": H, "d_m": d, "phi0": phi0, "cells": cells, "p_atm_factor": p_atm_factor, "status": s["status"],
            "steps": s["steps"], "half_life_s": half, "slope_per_s": slope, "rigid": diag["rigid"],
-           "D_app_m2_s": None if half is None else SERIES_HALF_LIFE * 4 * H**2 / (math.pi**2 * half),
+           "D_app_m2_s": None if half is None else pred["D_m2_s"] * pred["series_half_life_s"] / half,
            "record_t_s": t.tolist(), "record_p_over_p0": p.tolist()}
     out.update(pred)
     out["half_life_over_series"] = None if half is None else half / pred["series_half_life_s"]
