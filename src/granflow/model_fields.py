@@ -106,6 +106,39 @@ class FieldMaps:
         ambient = phi < self.ambient.phi_c
         return maximum_filter(ambient, size=2 * radius + 1, mode=self._filter_mode()) & ~ambient
 
+    def transport_cells(self, phi, c=None) -> np.ndarray | None:
+        """Mask (nx, nz) of the cells over which the time step's CFL number is taken, and that of
+        its check after the solve (:func:`granflow.physics.transport.cfl_number`); None = every
+        cell.
+
+        With the consistent momentum transport nothing crosses a face unless a cell beside it
+        holds grains: the material's own fluxes carry the grains, the indicator and the momentum
+        (the ambient's inertia floor ``rho_a`` is not transported). So the ambient's velocity
+        (weightless, pressureless air in the velocity band, which runs up to four times faster
+        than the grains above the Lagree deposit at 256^2) does not set the time step:
+
+        * indicator surface: the material cells (``c > C_MIN``) and the cells with grains above
+          the trace level (``phi > PHI_TRACE phi_max``). Its one-stage transport keeps
+          ``phi >= 0`` and ``0 <= c <= 1`` at any CFL number by limiting the outflows
+          (:mod:`granflow.physics.material`), so the trace material that numerical diffusion
+          leaves in the air (``c`` ~ 1e-7) may be carried by a faster air at CFL > 1/2, with the
+          grain mass still conserved to round-off;
+        * threshold surface: every cell with grains, and one more ring of cells for the two
+          SSP-RK2 stages of its phi transport (the first stage can fill a neighbour that the
+          second empties), whose positivity needs the CFL bound.
+
+        The v1 ``(u . grad) u`` advection moves the ambient's momentum too: every cell counts."""
+        if self.advection is not mom.Advection.CONSISTENT:
+            return None
+        phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
+        if not self.indicator:
+            mode = ("wrap", "constant") if self.grid.periodic_x else "constant"
+            return maximum_filter(phi > 0.0, size=3, mode=mode)
+        cells = phi > PHI_TRACE * self.material.phi_max
+        if c is not None:
+            cells |= np.asarray(c, dtype=float).reshape(self.grid.cell_shape) > C_MIN
+        return cells
+
     def velocity_region(self, phi) -> np.ndarray | None:
         """Flat mask (n_unknowns,) of the velocity unknowns solved in a step from ``phi``: the
         faces of the cells within :attr:`velocity_band` cells of grains

@@ -1,7 +1,8 @@
 """Simulation: the time loop around :meth:`granflow.model.Model.advance` (STYLE.md idioms 4, 6).
 
 * time step ``dt = min(cfl dt_CFL(u^n), dt_max, time to stop, time to the next scheduled output)``
-  with the CFL number of :func:`granflow.physics.transport.cfl_number`;
+  with the CFL number of :func:`granflow.physics.transport.cfl_number` over the model's
+  ``transport_cells(phi, c)`` if it has that method (:meth:`granflow.model.Model.transport_cells`);
 * a step reported FAILED (NaN, Picard divergence, CFL or phi-bound violation) or leaving a
   non-finite state is rejected: the state is restored and the step retried with ``dt/2``, at most
   ``max_retries`` times, then :class:`StepFailure` is raised;
@@ -26,9 +27,8 @@
   an accepted step;
 * :meth:`Simulation.checkpoint_payload` / :meth:`Simulation.restore_checkpoint`: everything a
   restart needs (state, clock, energy budget, totals, the phase of time schedules, the history of
-  the scheduled entries that keep one), stored exactly,
-  so that a restarted run reproduces the uninterrupted one bit for bit
-  (:mod:`granflow.output.checkpoint`).
+  the scheduled entries that keep one), stored exactly, so that a restarted run reproduces the
+  uninterrupted one bit for bit (:mod:`granflow.output.checkpoint`).
 """
 from __future__ import annotations
 
@@ -80,7 +80,6 @@ DEFAULT_MAX_RETRIES = 6
 """Halvings of dt allowed for one step."""
 RETRY_FACTOR = 0.5
 """dt of a retried step relative to the failed one."""
-
 
 STATE_ARRAYS = ("phi", "vel", "p", "p_f")
 """State arrays stored in a checkpoint (under ``state.<name>``)."""
@@ -286,7 +285,8 @@ class Simulation:
     # --- loop ---------------------------------------------------------------------------------
     def time_step(self) -> float:
         """The next dt [s] (before any retry)."""
-        dt = min(self.cfl * stable_dt(self.model.grid, self.state.vel, 1.0), self.dt_max,
+        cells = getattr(self.model, "transport_cells", lambda phi, c: None)(self.state.phi, self.state.c)
+        dt = min(self.cfl * stable_dt(self.model.grid, self.state.vel, 1.0, cells), self.dt_max,
                  self.stop_time - self.state.t)
         for schedule in self._schedules():
             t_next = schedule.next_time(self)

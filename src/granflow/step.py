@@ -465,7 +465,7 @@ def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int, dila
     docstring of :mod:`granflow.model`, step 3)."""
     g, mat = model.grid, model.material
     t0 = time.perf_counter()
-    cfl = cfl_number(g, u_new, dt)
+    cfl = cfl_number(g, u_new, dt, model.transport_cells(state.phi, state.c))
     if cfl > POSITIVITY_CFL:
         raise StepFailed(f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps)
     moved = model.transport(state.phi, u_new, dt, state.c, dilation)

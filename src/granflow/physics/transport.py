@@ -142,20 +142,27 @@ def flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
     return np.diff(fx, axis=0) / grid.dx + np.diff(fz, axis=1) / grid.dz
 
 
-def cfl_number(grid: Grid, vel, dt: float) -> float:
-    """Largest cell CFL number ``dt (max(|u_w|,|u_e|)/dx + max(|w_s|,|w_n|)/dz)`` [-].
+def cfl_number(grid: Grid, vel, dt: float, cells=None) -> float:
+    """Largest cell CFL number ``dt (max(|u_w|,|u_e|)/dx + max(|w_s|,|w_n|)/dz)`` [-], over every
+    cell or, with ``cells`` (bool, (nx, nz)), over those cells only (0 if there are none).
 
-    :data:`POSITIVITY_CFL` (1/2) is the positivity limit of the MUSCL-minmod SSP-RK2 update.
+    :data:`POSITIVITY_CFL` (1/2) is the positivity limit of the MUSCL-minmod SSP-RK2 update. A
+    transport can only move what is in a cell through that cell's faces, so the bound needs the
+    cells that hold (or, within the step, can receive and pass on) something to move:
+    :meth:`granflow.model.Model.transport_cells` gives them.
     """
     u, w = face_velocities(grid, vel)
-    au = np.maximum(np.abs(u[:-1, :]), np.abs(u[1:, :])) / grid.dx
-    aw = np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) / grid.dz
-    return float(dt * np.max(au + aw))
+    rate = (np.maximum(np.abs(u[:-1, :]), np.abs(u[1:, :])) / grid.dx
+            + np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) / grid.dz)
+    if cells is not None:
+        rate = rate[np.asarray(cells, dtype=bool).reshape(grid.cell_shape)]
+    return float(dt * np.max(rate)) if rate.size else 0.0
 
 
-def stable_dt(grid: Grid, vel, cfl: float) -> float:
-    """Largest dt with :func:`cfl_number` <= ``cfl`` (``inf`` for a fluid at rest) [s]."""
-    rate = cfl_number(grid, vel, 1.0)
+def stable_dt(grid: Grid, vel, cfl: float, cells=None) -> float:
+    """Largest dt with :func:`cfl_number` ``<= cfl`` (over ``cells`` if given; ``inf`` when
+    nothing there moves) [s]."""
+    rate = cfl_number(grid, vel, 1.0, cells)
     return float(cfl / rate) if rate > 0 else float("inf")
 
 
