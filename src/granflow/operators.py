@@ -228,6 +228,12 @@ class Operators:
         Mean of the neighbouring cells: 4 inside, 2 on a wall, 1 at a corner.
     node_to_cell : csr_matrix, (n_cells, n_nodes)
         Mean of the 4 corner nodes of each cell.
+    solid : ndarray of bool, (n_cells,), or None
+        Solid cells of a base profile (:func:`granflow.topography.masked_operators`); None in the
+        plain box.
+    open_faces : ndarray of bool, (n_unknowns,), or None
+        Velocity unknowns between two fluid cells (the only ones that carry velocity); None in the
+        plain box (all of them).
     """
 
     grid: Grid
@@ -242,6 +248,8 @@ class Operators:
     cell_to_face: sp.csr_matrix
     cell_to_node: sp.csr_matrix
     node_to_cell: sp.csr_matrix
+    solid: np.ndarray | None = None
+    open_faces: np.ndarray | None = None
 
     @classmethod
     def build(cls, grid: Grid, bcs: VelocityBCs | None = None) -> Operators:
