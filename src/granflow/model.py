@@ -104,6 +104,7 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
     Surface,
 )
 from granflow.operators import Operators
+from granflow.topography import Topography, masked_operators
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics import inflow, outflow
@@ -238,6 +239,11 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
     source : granflow.physics.inflow.Source, optional
         A supply of grains through part of the west wall or of the base (``[inflow]``,
         :mod:`granflow.physics.inflow`). Default none.
+    topography : granflow.topography.Topography, optional
+        A base profile ``z_b(x)``: the cells below it are solid (:mod:`granflow.topography`; the
+        base condition ``bcs.bottom`` applies along it). Default none (the flat base of the box).
+        So far with the indicator surface, the consistent momentum transport, the direct or
+        PARDISO solver, and neither gas injection nor a source nor a Coulomb base.
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -254,7 +260,8 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                  surface: Surface | str = Surface.INDICATOR,
                  base_friction: BaseFriction | str | None = None,
                  momentum_theta: float = mt.MC_THETA, gas_compressibility: str = "isothermal",
-                 wall_friction: float | None = None, source: Source | None = None) -> None:
+                 wall_friction: float | None = None, source: Source | None = None,
+                 topography: Topography | None = None) -> None:
         if not isinstance(grid, Grid):
             raise GranflowInputError(f"Model: grid must be a Grid, got {type(grid).__name__}")
         if not isinstance(closure, Closure):
@@ -270,6 +277,16 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.material = closure.material
         self.gravity = (float(g[0]), float(g[1]))
         self.ops = Operators.build(grid, bcs)
+        if topography is not None and not isinstance(topography, Topography):
+            raise GranflowInputError(f"Model: topography must be a granflow.topography.Topography, got {topography!r}")
+        self.topography = topography
+        self.solid = None if topography is None else topography.solid_cells(grid)
+        """bool (nx, nz): the solid cells of the topography (None: the flat base)."""
+        if self.solid is not None:
+            self.ops = masked_operators(self.ops, self.solid)
+        self.base_index = (np.zeros(grid.nx, dtype=np.int64) if self.solid is None
+                           else self.solid.sum(axis=1).astype(np.int64))
+        """int (nx,): the lowest fluid cell of each column (0 on the flat base)."""
         self.wall_friction = _wall_friction(self.ops.bcs, wall_friction)
         self.outflow = self.ops.bcs.east is VelocityBC.OUTFLOW  # (granflow.physics.outflow)
         self.assembler = mom.SaddleAssembler(self.ops)
@@ -320,6 +337,21 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.gas_coupling = self._gas_coupling(gas, open_top, U_inj, gas_compressibility)
         self.gas = None if self.gas_coupling is None else self.gas_coupling.gas
         self.source = self._source(source)
+        if self.solid is not None:
+            self._check_topography(choice, U_inj)
+
+    def _check_topography(self, choice: LinearSolverChoice, U_inj) -> None:
+        """What a topography does not support yet (issue 14 item 3), named."""
+        unsupported = [(not self.indicator, f"surface = {self.surface.value!r} (needs 'indicator')"),
+                       (self.advection is not mom.Advection.CONSISTENT,
+                        f"advection = {self.advection.value!r} (needs 'consistent')"),
+                       (choice is LinearSolverChoice.AMG, "linear_solver = 'amg' (use 'direct' or 'pardiso')"),
+                       (np.any(np.asarray(U_inj) != 0.0), "gas injection through the base (U_inj)"),
+                       (self.source is not None, "an inflow source"),
+                       (self.wall_friction is not None, "a Coulomb base")]
+        bad = [what for flag, what in unsupported if flag]
+        if bad:
+            raise GranflowInputError(f"Model: a topography does not support {'; '.join(bad)} yet")
 
     def _source(self, source: Source | None) -> Source | None:
         if source is None:

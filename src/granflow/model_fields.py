@@ -45,17 +45,22 @@ class FieldMaps:
         """``(mask of the bottom-row nodes, cell_to_node restricted to them)``
         (:func:`granflow.step.base_node_viscosity`)."""
         nodes = np.zeros(self.grid.node_shape, dtype=bool)
-        nodes[:, 0] = True
+        cols = np.arange(self.grid.nx)
+        nodes[cols, self.base_index] = nodes[cols + 1, self.base_index] = True  # the base cells' bottom corners
         nodes = nodes.ravel()
         return nodes, self.ops.cell_to_node.tocsr()[nodes]
 
     @cached_property
     def base_strain_rows(self) -> tuple:
-        """``(ec, en)`` (:mod:`granflow.operators`) restricted to the bottom-row cells and nodes:
-        the wall strain rate of :func:`granflow.physics.wall_friction.base_strain_rate_norm`."""
-        cells = np.zeros(self.grid.cell_shape, dtype=bool)
-        cells[:, 0] = True
-        return self.ops.ec.tocsr()[cells.ravel()], self.ops.en.tocsr()[self.base_node_rows[0]]
+        """``(ec, en_left, en_right)`` (:mod:`granflow.operators`) restricted to the base cells
+        (the lowest fluid cell of each column, :attr:`base_index`) and to their bottom-left and
+        bottom-right nodes: the wall strain rate of
+        :func:`granflow.physics.wall_friction.base_strain_rate_norm`."""
+        g = self.grid
+        cols, jb = np.arange(g.nx), self.base_index
+        en = self.ops.en.tocsr()
+        return (self.ops.ec.tocsr()[cols * g.nz + jb], en[cols * (g.nz + 1) + jb],
+                en[(cols + 1) * (g.nz + 1) + jb])
 
     @property
     def indicator(self) -> bool:
@@ -84,7 +89,7 @@ class FieldMaps:
         carries ``c``; ``dilation`` the partial cells' dilatation rate [s^-1])."""
         if self.indicator:
             return advect_material(self.grid, c, phi, vel, dt, self.material.phi_max, dilation,
-                                   psi_min=self.ambient.phi_c)
+                                   psi_min=self.ambient.phi_c, solid=self.solid)
         return advect(self.grid, phi, vel, dt, self.material.phi_max, self.phi_transport)
 
     def transport_fluxes(self, phi, vel, dt: float, c=None, window="auto") -> tuple:
@@ -92,7 +97,7 @@ class FieldMaps:
         arguments (the indicator: :func:`granflow.physics.material.material_solid_fluxes`, the
         fluxes only; ``window`` its material window if known)."""
         if self.indicator:
-            return material_solid_fluxes(self.grid, c, phi, vel, dt, self.material.phi_max, window)
+            return material_solid_fluxes(self.grid, c, phi, vel, dt, self.material.phi_max, window, self.solid)
         moved = self.transport(phi, vel, dt, c)
         return moved.flux_x, moved.flux_z
 
@@ -143,14 +148,17 @@ class FieldMaps:
         """Flat mask (n_unknowns,) of the velocity unknowns solved in a step from ``phi``: the
         faces of the cells within :attr:`velocity_band` cells of grains
         (``phi > PHI_TRACE phi_max``, :attr:`AmbientParams.velocity_band`); None = all of them
-        (no band, or no grains)."""
-        r = self.velocity_band
+        (no band, or no grains). With a topography, only open faces (between two fluid cells,
+        :mod:`granflow.topography`) are kept, band or not: the others are ``u = 0``."""
+        r, open_faces = self.velocity_band, self.ops.open_faces
         if r is None:
-            return None
+            return None if open_faces is None else open_faces
         grains = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape) > PHI_TRACE * self.material.phi_max
         mode = ("wrap", "constant") if self.grid.periodic_x else "constant"
         band = maximum_filter(grains, size=2 * r + 1, mode=mode)
         faces = (self._face_cells @ band.ravel().astype(float)) > 0.0
+        if open_faces is not None:
+            return faces & open_faces if faces.any() else open_faces
         return faces if faces.any() and not faces.all() else None
 
     def effective_packing(self, phi, c=None) -> np.ndarray:
@@ -206,6 +214,11 @@ class FieldMaps:
                                      f"{self.grid.cell_shape}") from None
         if self.gas is None and np.any(p_f != 0.0):
             raise GranflowInputError("Model.initial_state: p_f != 0 needs a gas law (gas=...)")
+        if self.solid is not None and np.any(phi.reshape(self.grid.cell_shape)[self.solid] != 0.0):
+            i, j = np.argwhere(self.solid & (phi.reshape(self.grid.cell_shape) != 0.0))[0]
+            raise GranflowInputError(f"Model.initial_state: phi != 0 in the solid cell ({i}, {j}) at "
+                                     f"x = {self.grid.xc[i]:.6g} m, z = {self.grid.zc[j]:.6g} m, below the "
+                                     f"topography; grains must sit on the profile")
         p_f = np.where(self.dense(phi).reshape(self.grid.cell_shape), p_f, 0.0)
         p = np.maximum(self.lithostatic_pressure(phi) - p_f, 0.0)
         return State.at_rest(self.grid, phi, p=p, p_f=p_f, c=self.material_of(phi))

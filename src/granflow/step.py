@@ -295,16 +295,17 @@ def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, e
     cell thick.
     """
     nx, nz = model.grid.cell_shape
+    at = (np.arange(nx), model.base_index)  # the base cells: the lowest fluid cell of each column
     p_wall = np.array(p_eval, dtype=float).reshape(nx, nz)
-    p_wall[:, 0] = wf.wall_pressure(model, phi_e, p_eval, p_f)
+    p_wall[at] = wf.wall_pressure(model, phi_e, p_eval, p_f)
     base = np.zeros((nx, nz), dtype=bool)
-    base[:, 0] = True
+    base[at] = True
     base = base.ravel() & np.asarray(dense, dtype=bool).ravel()
     if not base.any():
         return eta_n
     S_wall = np.array(S, dtype=float).reshape(nx, nz)
     if vel is not None:
-        S_wall[:, 0] = wf.base_strain_rate_norm(model.ops, vel, model.base_strain_rows)
+        S_wall[at] = wf.base_strain_rate_norm(model.ops, vel, model.base_strain_rows)
     eta_wall = np.where(base, model.cell_viscosity(phi_e, p_wall.ravel(), S_wall.ravel(), base), eta_c)
     nodes, to_nodes = model.base_node_rows
     out = np.array(eta_n, dtype=float)

@@ -216,14 +216,15 @@ def solid_fluxes(c, phi, fcx, fcz, c_min, periodic, gx, gz):
 
 
 @njit(cache=True)
-def fluxes(c, phi, u, w, dt, dx, dz, phi_max, cap, c_min, periodic, max_passes):
+def fluxes(c, c_rec, phi, u, w, dt, dx, dz, phi_max, cap, c_min, periodic, max_passes):
     """The volume and solid fluxes of a stage, ``(fcx, fcz, gx, gz, held)`` (``material._fluxes``:
-    donor-acceptor volume fluxes with Youngs' normal, the overfill correction, ``c >= 0``; MUSCL
-    packing fluxes, ``phi >= 0``, ``phi <= phi_max``)."""
+    donor-acceptor volume fluxes with Youngs' normal, read from ``c_rec`` (``c`` with the solid
+    cells of a topography filled, ``material.solid_filled``), the overfill correction, ``c >= 0``;
+    MUSCL packing fluxes, ``phi >= 0``, ``phi <= phi_max``)."""
     nx, nz = c.shape
     fcx = np.zeros((nx + 1, nz))
     fcz = np.zeros((nx, nz + 1))
-    volume_fluxes(c, u, w, dt, dx, dz, periodic, fcx, fcz)
+    volume_fluxes(c_rec, u, w, dt, dx, dz, periodic, fcx, fcz)
     overfill_correction(c, fcx, fcz, u, w, dt, dx, dz, periodic)
     limit_to_lower_bound(c, fcx, fcz, dt, dx, dz, periodic)
     gx = np.zeros((nx + 1, nz))

@@ -279,22 +279,40 @@ def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndar
     return fx, fz
 
 
-def _fluxes(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
+def solid_filled(c, solid) -> np.ndarray:
+    """``c`` with the solid cells of a topography (bool (nx, nz), the lowest cells of each column,
+    :mod:`granflow.topography`; None: none) set to the column's lowest fluid cell: the field the
+    reconstruction of :func:`volume_fluxes` reads. Below a flat piece of base this is the box's
+    own rule beyond a wall (the wall cell repeated, :func:`_shifted`), so a layer on a raised
+    floor is carried exactly as on the box's base; beside a step's side the solid reads the
+    column's base value (first order). Every flux through a face beside a solid cell is zero
+    (u = 0 there), so the fill moves no material."""
+    if solid is None:
+        return c
+    c = np.asarray(c, dtype=float)
+    solid = np.asarray(solid, dtype=bool).reshape(c.shape)
+    base = np.minimum(solid.sum(axis=1), c.shape[1] - 1)
+    return np.where(solid, c[np.arange(c.shape[0]), base][:, None], c)
+
+
+def _fluxes(grid: Grid, c, phi, u, w, dt: float, phi_max: float, c_rec=None):
     """The volume and solid fluxes of a stage: ``(F_c, F_phi, held)`` (they do not depend on the
-    dilatation, which only changes the material volume afterwards). The compiled kernel
+    dilatation, which only changes the material volume afterwards); ``c_rec`` the field the volume
+    fluxes' reconstruction reads (:func:`solid_filled`; default ``c``). The compiled kernel
     (:mod:`granflow.physics.material_kernel`) when Numba is installed, else the NumPy reference
     :func:`_fluxes_numpy` (same arguments and result; equal bit for bit on the cases tested, the
     held-back volume to round-off: a sum in another order)."""
     if not kernel_available():
-        return _fluxes_numpy(grid, c, phi, u, w, dt, phi_max)
+        return _fluxes_numpy(grid, c, phi, u, w, dt, phi_max, c_rec)
     return fluxes_compiled(c, phi, u, w, dt, grid.dx, grid.dz, phi_max,
-                           phi_max * (1.0 + BOUND_RTOL), C_MIN, grid.periodic_x, limiter_passes(grid))
+                           phi_max * (1.0 + BOUND_RTOL), C_MIN, grid.periodic_x, limiter_passes(grid), c_rec)
 
 
-def _fluxes_numpy(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
+def _fluxes_numpy(grid: Grid, c, phi, u, w, dt: float, phi_max: float, c_rec=None):
     """NumPy reference of :func:`_fluxes`: donor-acceptor volume fluxes, overfill correction,
     ``c >= 0``; MUSCL packing fluxes, ``phi >= 0``, ``phi <= phi_max``."""
-    fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c, u, w, dt), u, w, dt)
+    c_rec = c if c_rec is None else c_rec
+    fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c_rec, u, w, dt), u, w, dt)
     fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
     gx, gz = solid_fluxes(grid, packing(c, phi), c > C_MIN, fcx, fcz)
     # a MUSCL psi_f above the donor's psi can take more grains than a draining cell holds
@@ -303,10 +321,10 @@ def _fluxes_numpy(grid: Grid, c, phi, u, w, dt: float, phi_max: float):
     return (fcx, fcz), (gx, gz), held
 
 
-def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None):
+def _stage(grid: Grid, c, phi, u, w, div_u, dt: float, phi_max: float, dilation=None, c_rec=None):
     """One forward-Euler stage: ``(c*, phi*, F_c, F_phi, held)`` (module docstring)."""
     material, rows = c > C_MIN, c >= C_ROW   # rows: the cells with a dilatancy row
-    (fcx, fcz), (gx, gz), held = _fluxes(grid, c, phi, u, w, dt, phi_max)
+    (fcx, fcz), (gx, gz), held = _fluxes(grid, c, phi, u, w, dt, phi_max, c_rec)
     c_new = c - dt * flux_divergence(grid, fcx, fcz)
     factor = np.maximum(1.0 - dt * div_u, MIN_DILATION_FACTOR)
     dilating = rows
@@ -374,10 +392,10 @@ def material_window(grid: Grid, c, phi) -> tuple[slice, slice] | None:
     return xs, zs
 
 
-def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: float):
+def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: float, c_rec=None):
     """:func:`advect_material` on whole face arrays of ``geom`` (a Grid or a :class:`_Window`)."""
     div_u = np.diff(u, axis=0) / geom.dx + np.diff(w, axis=1) / geom.dz
-    c1, phi_new, fluxes, held = _stage(geom, c, phi, u, w, div_u, dt, phi_max, dilation)
+    c1, phi_new, fluxes, held = _stage(geom, c, phi, u, w, div_u, dt, phi_max, dilation, c_rec)
     c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, geom.cell_volume, psi_min)
     return c_new, phi_new, fluxes, held, adjusted
 
@@ -392,33 +410,35 @@ def _window_geometry(grid: Grid, win: tuple[slice, slice]) -> tuple:
 
 
 def material_solid_fluxes(grid: Grid, c, phi, vel, dt: float, phi_max: float,
-                          window: tuple | None | str = "auto") -> tuple:
+                          window: tuple | None | str = "auto", solid=None) -> tuple:
     """The solid fluxes ``(flux_x, flux_z)`` [m s^-1] that :func:`advect_material` with the same
     arguments returns (bit for bit; on the :func:`material_window`), without the rest of the step:
     what the consistent momentum transport needs at every Picard sweep. ``window``: the
     :func:`material_window` of ``(c, phi)`` if already known (None: the whole grid), else
-    ``"auto"`` to compute it."""
+    ``"auto"`` to compute it; ``solid`` the solid cells of a topography (:func:`solid_filled`)."""
     c = np.asarray(c, dtype=float)
     phi = np.asarray(phi, dtype=float)
     u, w = face_velocities(grid, vel)
+    c_rec = solid_filled(c, solid)
     win = material_window(grid, c, phi) if isinstance(window, str) else window
     if win is None:
-        return _fluxes(grid, c, phi, u, w, dt, phi_max)[1]
+        return _fluxes(grid, c, phi, u, w, dt, phi_max, c_rec)[1]
     xs, zs = win
     sub, xf, zf = _window_geometry(grid, win)
-    gx1, gz1 = _fluxes(sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max)[1]
+    gx1, gz1 = _fluxes(sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max, c_rec[xs, zs])[1]
     gx, gz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
     gx[xf, zs], gz[xs, zf] = gx1, gz1
     return gx, gz
 
 
 def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation=None,
-                    psi_min: float = 0.0) -> MaterialTransport:
+                    psi_min: float = 0.0, solid=None) -> MaterialTransport:
     """One step of the material indicator and the grains (module docstring) with the
     frozen face velocities ``vel`` [m s^-1], ``dt`` [s] (CFL <= 1/2); ``dilation`` (nx, nz)
     [s^-1], optional: the dilatation rate of the material in the thin cells (the closure's
     law at their friction pressure), else they are carried without dilating; ``psi_min`` the
-    loosest packing of the material (:func:`consistent_bounds`).
+    loosest packing of the material (:func:`consistent_bounds`); ``solid`` the solid cells of a
+    topography (bool (nx, nz); the reconstruction reads them as :func:`solid_filled`).
 
     Examples
     --------
@@ -438,16 +458,17 @@ def advect_material(grid: Grid, c, phi, vel, dt: float, phi_max: float, dilation
     u, w = face_velocities(grid, vel)
     if dilation is not None:
         dilation = np.asarray(dilation, dtype=float).reshape(grid.cell_shape)
+    c_rec = solid_filled(c, solid)
     win = material_window(grid, c, phi)
     if win is None:
         c_new, phi_new, (gx, gz), held, adjusted = _advect(grid, c, phi, u, w, dt, phi_max, dilation,
-                                                           psi_min)
+                                                           psi_min, c_rec)
     else:  # the same arithmetic on the window only (material_window)
         xs, zs = win
         sub, xf, zf = _window_geometry(grid, win)
         c1, phi1, (gx1, gz1), held, adjusted = _advect(
             sub, c[xs, zs], phi[xs, zs], u[xf, zs], w[xs, zf], dt, phi_max,
-            None if dilation is None else dilation[xs, zs], psi_min)
+            None if dilation is None else dilation[xs, zs], psi_min, c_rec[xs, zs])
         c_new, phi_new = np.zeros_like(c), np.zeros_like(phi)
         gx, gz = np.zeros(grid.xface_shape), np.zeros(grid.zface_shape)
         c_new[xs, zs], phi_new[xs, zs] = c1, phi1

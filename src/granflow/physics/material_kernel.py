@@ -30,12 +30,13 @@ def kernel_available() -> bool:
 
 def fluxes_compiled(c: np.ndarray, phi: np.ndarray, u: np.ndarray, w: np.ndarray, dt: float,
                     dx: float, dz: float, phi_max: float, cap: float, c_min: float, periodic: bool,
-                    max_passes: int):
-    """``((fcx, fcz), (gx, gz), held)`` of one stage (see ``material._fluxes_numpy``)."""
+                    max_passes: int, c_rec: np.ndarray | None = None):
+    """``((fcx, fcz), (gx, gz), held)`` of one stage (see ``material._fluxes_numpy``; ``c_rec`` the
+    field the volume fluxes' reconstruction reads, default ``c``)."""
     def f64(a):
         return np.ascontiguousarray(a, dtype=np.float64)
 
-    fcx, fcz, gx, gz, held = _KERNEL.get()(f64(c), f64(phi), f64(u), f64(w), float(dt), float(dx),
+    fcx, fcz, gx, gz, held = _KERNEL.get()(f64(c), f64(c if c_rec is None else c_rec), f64(phi), f64(u), f64(w), float(dt), float(dx),
                                         float(dz), float(phi_max), float(cap), float(c_min),
                                         bool(periodic), int(max_passes))
     return (fcx, fcz), (gx, gz), float(held)

@@ -50,11 +50,12 @@ def wall_pressure(model, phi_e, p_eval, p_f) -> np.ndarray:
     z-face (:func:`granflow.physics.momentum.base_pressure`)."""
     g = model.grid
     nx, nz = g.cell_shape
+    cols, jb = np.arange(nx), model.base_index  # the base cells (the lowest fluid cells)
     p2 = np.asarray(p_eval, dtype=float).reshape(nx, nz)
     phi2 = np.asarray(phi_e, dtype=float).reshape(nx, nz)
     pf2 = np.asarray(p_f, dtype=float).reshape(nx, nz)
-    dpf = (pf2[:, 1] - pf2[:, 0]) / g.dz if nz > 1 else 0.0
-    return base_pressure(p2[:, 0], phi2[:, 0], model.material.rho_s, abs(model.gravity[1]), g.dz, dpf)
+    dpf = (pf2[cols, jb + 1] - pf2[cols, jb]) / g.dz if nz > 1 else 0.0
+    return base_pressure(p2[cols, jb], phi2[cols, jb], model.material.rho_s, abs(model.gravity[1]), g.dz, dpf)
 
 
 def coulomb_base_viscosity(model, phi_e, p_eval, p_f, vel, eta_n) -> tuple[np.ndarray, np.ndarray]:
@@ -76,7 +77,7 @@ def coulomb_base_viscosity(model, phi_e, p_eval, p_f, vel, eta_n) -> tuple[np.nd
     nodes, to_nodes = model.base_node_rows
     nx, nz = model.grid.cell_shape
     p_cells = np.zeros((nx, nz))
-    p_cells[:, 0] = wall_pressure(model, phi_e, p_eval, p_f)
+    p_cells[np.arange(nx), model.base_index] = wall_pressure(model, phi_e, p_eval, p_f)
     p_node = to_nodes @ p_cells.ravel()
     gamma = (model.ops.en @ np.asarray(vel, dtype=float))[nodes]
     eta_w = model.wall_friction * p_node / np.sqrt(gamma * gamma + (REG_FACTOR * model.eps) ** 2)
@@ -117,9 +118,9 @@ def base_strain_rate_norm(ops, vel, rows=None) -> np.ndarray:
     above: the centre's 4-node mean gives ``|S|`` half-way up the cell, ``1/sqrt(2)`` of the wall's
     in a film one cell thick with a stress-free top (basal friction ``sqrt(2) Z p``). Used by the
     ``"wall"`` base friction on a no-slip base (:func:`granflow.step.base_node_viscosity`).
-    ``rows``: ``(ec, en)`` restricted to the bottom cells and nodes
-    (:attr:`granflow.model.Model.base_strain_rows`; the same values, ~20x fewer operations at
-    128^2); the whole-grid operators otherwise.
+    ``rows``: ``(ec, en_left, en_right)`` restricted to the base cells and their bottom-left and
+    bottom-right nodes (:attr:`granflow.model.Model.base_strain_rows`, which follows a topography;
+    the same values, ~20x fewer operations at 128^2); else the whole-grid operators on the bottom row.
     """
     vel = ops._velocity(vel)
     g = ops.grid
@@ -127,7 +128,8 @@ def base_strain_rate_norm(ops, vel, rows=None) -> np.ndarray:
     if rows is None:
         sxx2 = (0.25 * (ops.ec @ vel) ** 2).reshape(nx, nz)[:, 0]
         sxz2 = (0.25 * (ops.en @ vel) ** 2).reshape(g.node_shape)[:, 0]
+        left, right = sxz2[:-1], sxz2[1:]
     else:
         sxx2 = 0.25 * (rows[0] @ vel) ** 2
-        sxz2 = 0.25 * (rows[1] @ vel) ** 2
-    return np.sqrt(sxx2 + 0.5 * (sxz2[:-1] + sxz2[1:]))
+        left, right = 0.25 * (rows[1] @ vel) ** 2, 0.25 * (rows[2] @ vel) ** 2
+    return np.sqrt(sxx2 + 0.5 * (left + right))
