@@ -130,6 +130,15 @@ def _option(enum_type, value, what: str):
                                  f"{[e.value for e in enum_type]}") from None
 
 
+def _isochoric_interface(value) -> int:
+    """The ``isochoric_interface`` option, checked: an integer in [0, INTERFACE_RADIUS] [cells]."""
+    if (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+            or not 0 <= value <= INTERFACE_RADIUS):
+        raise GranflowInputError(f"Model: isochoric_interface must be an integer in [0, {INTERFACE_RADIUS}] "
+                                 f"(cells), got {value!r}")
+    return int(value)
+
+
 def _wall_friction(bcs: VelocityBCs, mu_w) -> float | None:
     """The base's Coulomb coefficient mu_w [-] (:mod:`granflow.physics.wall_friction`), checked
     against the base condition: a ``"coulomb"`` base needs one (finite, > 0), the others take none."""
@@ -276,17 +285,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.closure = closure
         self.material = closure.material
         self.gravity = (float(g[0]), float(g[1]))
-        self.ops = Operators.build(grid, bcs)
-        if topography is not None and not isinstance(topography, Topography):
-            raise GranflowInputError(f"Model: topography must be a granflow.topography.Topography, got {topography!r}")
-        self.topography = topography
-        self.solid = None if topography is None else topography.solid_cells(grid)
-        """bool (nx, nz): the solid cells of the topography (None: the flat base)."""
-        if self.solid is not None:
-            self.ops = masked_operators(self.ops, self.solid)
-        self.base_index = (np.zeros(grid.nx, dtype=np.int64) if self.solid is None
-                           else self.solid.sum(axis=1).astype(np.int64))
-        """int (nx,): the lowest fluid cell of each column (0 on the flat base)."""
+        self.ops = self._operators(grid, bcs, topography)
         self.wall_friction = _wall_friction(self.ops.bcs, wall_friction)
         self.outflow = self.ops.bcs.east is VelocityBC.OUTFLOW  # (granflow.physics.outflow)
         self.assembler = mom.SaddleAssembler(self.ops)
@@ -298,11 +297,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                 f"Model: ambient.phi_c = {self.ambient.phi_c} must be below phi_max = {self.material.phi_max}")
         self.delta_p = float(delta_p)
         self.interface_packing = bool(interface_packing)
-        if (isinstance(isochoric_interface, bool) or not isinstance(isochoric_interface, (int, np.integer))
-                or not 0 <= isochoric_interface <= INTERFACE_RADIUS):
-            raise GranflowInputError(f"Model: isochoric_interface must be an integer in [0, {INTERFACE_RADIUS}] "
-                                     f"(cells), got {isochoric_interface!r}")
-        self.isochoric_interface = int(isochoric_interface)
+        self.isochoric_interface = _isochoric_interface(isochoric_interface)
         self.phi_tolerance = float(phi_tolerance)
         self.consistent_gravity = bool(consistent_gravity)
         if not mt.MINMOD_THETA <= momentum_theta <= mt.MC_THETA:
@@ -339,6 +334,20 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.source = self._source(source)
         if self.solid is not None:
             self._check_topography(choice, U_inj)
+
+    def _operators(self, grid: Grid, bcs: VelocityBCs | None, topography: Topography | None) -> Operators:
+        """The operators of the box, or of its fluid cells above ``topography``
+        (:mod:`granflow.topography`); sets :attr:`topography`, :attr:`solid` and :attr:`base_index`."""
+        if topography is not None and not isinstance(topography, Topography):
+            raise GranflowInputError(f"Model: topography must be a granflow.topography.Topography, got {topography!r}")
+        self.topography = topography
+        self.solid = None if topography is None else topography.solid_cells(grid)
+        """bool (nx, nz): the solid cells of the topography (None: the flat base)."""
+        self.base_index = (np.zeros(grid.nx, dtype=np.int64) if self.solid is None
+                           else self.solid.sum(axis=1).astype(np.int64))
+        """int (nx,): the lowest fluid cell of each column (0 on the flat base)."""
+        ops = Operators.build(grid, bcs)
+        return ops if self.solid is None else masked_operators(ops, self.solid)
 
     def _check_topography(self, choice: LinearSolverChoice, U_inj) -> None:
         """What a topography does not support yet (issue 14 item 3), named."""

@@ -18,6 +18,7 @@ from granflow.closure_figures import (  # noqa: F401  (re-exported)
 )
 from granflow.figure_layout import pyplot as _pyplot
 from granflow.figure_layout import save_figure
+from granflow.terrain_figure import draw_terrain, solid_mask
 
 LINE_FIGURE_IN = (7.0, 4.0)
 """Size [in] of the figures of time series (``front.png``, ``probes.png``)."""
@@ -168,6 +169,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
                           vmax=float(ds.attrs.get("phi_max", 0.6)), cmap="YlOrBr")
         if "u" in snap and "w" in snap:
             speed_contours(ax, ds, i)
+        draw_terrain(ax, ds)
         draw_front(ax, ds, i)
         ax.set_aspect("equal" if equal_aspect(ds) else "auto")
         ax.set_title(f"phi, t = {float(snap['time']):.3g} {tu}", fontsize="small")
@@ -177,6 +179,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         if has_pf:
             ax = axes[1, k]
             m = ax.pcolormesh(*mesh_xz(ds), snap["p_f"].transpose("z", "x").values, cmap="viridis")
+            draw_terrain(ax, ds)
             ax.set_aspect("equal" if equal_aspect(ds) else "auto")
             ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
             ax.set_xlabel(f"x [{lu}]")
@@ -353,6 +356,9 @@ def _surface(ax, ds, index: int, phi_c: float):
     if name not in ds:
         return None
     q = np.asarray(ds[name].transpose("time", "x", "z").values[index], dtype=float)
+    rock = solid_mask(ds)
+    if rock is not None:  # the rock under a base profile is no free surface: read it as material
+        q = np.where(rock, np.nanmax(q), q)
     if not (np.nanmin(q) < level < np.nanmax(q)):
         return None
     return ax.contour(ds["x"].values, ds["z"].values, q.T, levels=[level], colors="k",
@@ -422,6 +428,7 @@ def snapshot_axes(ax, ds, var: str, index: int, limits: tuple[float, float] | No
     mesh = ax.pcolormesh(*mesh_xz(ds), np.asarray(field.values[index], dtype=float).T, vmin=vmin,
                          vmax=vmax, cmap=_cmap(var))
     contour = _surface(ax, ds, index, free_surface_level(ds))
+    draw_terrain(ax, ds)
     draw_front(ax, ds, index)
     bar = ax.figure.colorbar(mesh, ax=ax, location="bottom", shrink=0.9, aspect=40)
     bar.set_label(field_label(field))

@@ -89,7 +89,7 @@ def make_model(config: CaseConfig, **overrides: Any) -> Model:
         gravity_blend_velocity=n.gravity_blend_velocity, linear_solver=n.linear_solver,
         isochoric_interface=n.isochoric_interface, surface=n.surface, base_friction=n.base_friction,
         momentum_theta=n.momentum_theta, wall_friction=w.wall_friction, source=make_source(config),
-        **gas_options(config))
+        topography=config.make_topography(), **gas_options(config))
     unknown = set(overrides) - set(inspect.signature(Model).parameters)
     if unknown:
         raise GranflowInputError(f"make_model: Model has no option(s) {sorted(unknown)}")
@@ -151,3 +151,29 @@ def extent_problems(config: CaseConfig, key: str, size: float, axis: str) -> lis
     if size < cell:
         return [(key, f"{size} m is smaller than one cell ({cell:.4g} m); refine the grid")]
     return []
+
+
+def flat_base_problems(config: CaseConfig, case: str) -> list[tuple[str, str]]:
+    """A case built on the box's flat base refuses a ``[topography]``."""
+    if config.topography.x:
+        return [("topography.x", f"{case} has the box's flat base; a base profile needs the "
+                                 "column_collapse case (remove [topography])")]
+    return []
+
+
+def base_height(grid: Grid, topography) -> np.ndarray:
+    """Height of the staircase base in each column [m], shape (nx,) (``grid.z0`` without a
+    topography): the top of the column's solid cells (:mod:`granflow.topography`)."""
+    if topography is None:
+        return np.full(grid.nx, grid.z0)
+    return grid.z0 + topography.solid_cells(grid).sum(axis=1) * grid.dz
+
+
+def column_on_base(grid: Grid, x0: float, x1: float, height: float, base: np.ndarray) -> np.ndarray:
+    """Fraction of each cell's area inside ``[x0, x1] x [base_i, base_i + height]`` [-], shape
+    (nx, nz): a rectangle of grains standing on the (staircase) base ``base`` [m] of each column
+    (:func:`rectangle_fraction` on a flat base)."""
+    fx = np.clip((np.minimum(grid.xf[1:], x1) - np.maximum(grid.xf[:-1], x0)) / grid.dx, 0.0, 1.0)
+    lo, hi = np.asarray(base, dtype=float)[:, None], np.asarray(base, dtype=float)[:, None] + height
+    fz = np.clip((np.minimum(grid.zf[None, 1:], hi) - np.maximum(grid.zf[None, :-1], lo)) / grid.dz, 0.0, 1.0)
+    return fx[:, None] * fz

@@ -94,8 +94,20 @@ UNITS = {
     "inflow_mass": "1 (a source's supply, in fractions of the initial mass)", "phi_min": "1", "phi_max": "1",
     "energy_residual_rel": "1 (of energy_residual.reference, the run's largest energy source; null if negligible)",
     "energy": "J m-1",
-    "wall_s": "s", "t_final": "s",
+    "wall_s": "s", "t_final": "s", "topography": "m",
 }
+
+
+def topography_summary(model) -> dict[str, Any] | None:
+    """The base profile of a run (None: the flat base): its points and how far the solver's
+    staircase departs from it at the cell centres (at most half a cell, granflow.topography)."""
+    topo = getattr(model, "topography", None)
+    if topo is None:
+        return None
+    from granflow.topography import staircase_error
+
+    return {"x_m": topo.x.tolist(), "z_m": topo.z.tolist(),
+            "staircase_error_m": staircase_error(topo, model.grid)}
 
 
 class RunStatus(str, enum.Enum):
@@ -391,6 +403,7 @@ class CaseRun:
                                # fronts are quantised by the column width (diagnostics.front_from_thickness)
                                "resolution_m": g.dx},
             "final_height_at_wall": float(h[0]),
+            "topography": topography_summary(sim.model),
             "t_rest": rest.t_rest, "rest_speed": self.rest_speed, "peak_speed": rest.peak_speed,
             "stopped_at_rest": rest.stopped_at_rest,
             "mass_rel_error": ((mass + tot.clipped_mass - tot.added_mass + tot.outflow_mass - tot.inflow_mass

@@ -23,9 +23,12 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
+import numpy as np
 from pydantic import Field
 
 from granflow.casekit.common import (
+    base_height,
+    column_on_base,
     extent_problems,
     gas_problems,
     initial_state,
@@ -33,7 +36,6 @@ from granflow.casekit.common import (
     make_simulation,
     packing,
     packing_problems,
-    rectangle_fraction,
 )
 from granflow.casekit.preparation import (
     DEFAULT_PREP_MAX_TIME,
@@ -92,6 +94,23 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
                                        "set periodic_x = false"))
     if s.b0 > 0 and config.gas.law == "none":
         out.append(("setup.b0", 'an initial pore pressure needs gas.law = "linear" or "nonlinear"'))
+    return out + topography_problems(config)
+
+
+def topography_problems(config: CaseConfig) -> list[tuple[str, str]]:
+    """A base profile (``[topography]``): the column stands on it, so it must fit above it, and
+    the injection preparation (a bed on the flat porous base) is not available on it."""
+    topo, s, g = config.make_topography(), config.setup, config.grid
+    if topo is None:
+        return []
+    out = []
+    if s.preparation == Preparation.INJECTION:
+        out.append(("setup.preparation", '"injection" prepares the bed on the flat porous base; it is '
+                                         "not available with a [topography] (use \"none\" and setup.b0)"))
+    top = float(np.max(topo.height(np.linspace(0.0, min(s.L0, g.Lx), 201))))
+    if top + s.H0 > g.Lz:
+        out.append(("setup.H0", f"the column ({s.H0} m) on the profile (up to z = {top:.4g} m under it) "
+                                f"does not fit below the lid (grid.Lz = {g.Lz} m)"))
     return out
 
 
@@ -145,5 +164,6 @@ def setup(config: CaseConfig) -> Simulation:
         return sim
     model = make_model(config)
     g = model.grid
-    phi = packing(config) * rectangle_fraction(g, 0.0, s.L0, 0.0, s.H0)
+    # the column stands on the base: the box's, or the staircase of a [topography]
+    phi = packing(config) * column_on_base(g, 0.0, s.L0, s.H0, base_height(g, model.topography))
     return make_simulation(config, model, initial_state(model, phi, s.b0))

@@ -42,6 +42,7 @@ import numpy as np
 from pydantic import Field
 
 from granflow.casekit.common import (
+    flat_base_problems,
     extent_problems,
     gas_problems,
     make_model,
@@ -119,6 +120,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
         out.append(("setup.H", (f"{s.H} m fills the box (grid.Lz = {g.Lz} m): the gas cannot escape; "
                                "leave at least one ambient cell above the layer or set "
                                "gas.open_top = true")))
+    out += flat_base_problems(config, CASE)
     return out
 
 

@@ -48,6 +48,7 @@ import numpy as np
 from pydantic import Field
 
 from granflow.casekit.common import (
+    flat_base_problems,
     extent_problems,
     gas_problems,
     make_model,
@@ -191,6 +192,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
             out.append(("gas.U_inj", "the case sets the injection from setup.beta; leave gas.U_inj = 0"))
     if not any(key.startswith("setup.h0") for key, _ in out):
         out += _layer_problem(config)
+    out += flat_base_problems(config, CASE)
     return out
 
 

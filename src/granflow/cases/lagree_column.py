@@ -50,7 +50,7 @@ from pydantic import Field
 
 from granflow import diagnostics as dg
 from granflow.casekit import common
-from granflow.casekit.common import make_simulation, rectangle_fraction
+from granflow.casekit.common import flat_base_problems, make_simulation, rectangle_fraction
 from granflow.casekit import headlines
 from granflow.casekit.registry import CASES
 from granflow.config import (
@@ -182,6 +182,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
     if s.phi_max <= config.numerics.ambient.phi_c:
         phi_c = config.numerics.ambient.phi_c
         out.append(("setup.phi_max", f"{s.phi_max} must exceed numerics.ambient.phi_c = {phi_c}"))
+    out += flat_base_problems(config, "lagree_column")
     return out
 
 

@@ -35,7 +35,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from granflow.casekit.common import make_grid, make_simulation, packing_problems
+from granflow.casekit.common import flat_base_problems, make_grid, make_simulation, packing_problems
 from granflow.casekit import headlines
 from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
@@ -165,6 +165,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
                                 f"phi_eq = {phi_eq:.4g}, outside (numerics.ambient.phi_c = "
                                 f"{config.numerics.ambient.phi_c}, material.phi_max = "
                                 f"{config.material.phi_max}]; lower setup.S or raise setup.p")))
+    out += flat_base_problems(config, CASE)
     return out
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from pydantic import Field
 
 from granflow.casekit.common import (
+    flat_base_problems,
     extent_problems,
     gas_problems,
     make_model,
@@ -44,7 +45,7 @@ class StaticLayerSetup(Section):
 
 
 def check(config: CaseConfig) -> list[tuple[str, str]]:
-    return (packing_problems(config) + gas_problems(config)
+    return (packing_problems(config) + gas_problems(config) + flat_base_problems(config, "static_layer")
             + extent_problems(config, "setup.H", config.setup.H, "z"))
 
 

@@ -390,6 +390,30 @@ class OutputSection(Section):
                           "end of the run [-]")
 
 
+class TopographySection(Section):
+    """``[topography]``: a base profile z_b(x) through the points (x, z), linear between them and
+    level beyond; the cells below it are solid (granflow.topography). Empty: the flat base."""
+
+    x: list[float] = Field(default_factory=list, description="abscissae of the profile's points, "
+                           "strictly increasing [m]")
+    z: list[float] = Field(default_factory=list, description="base height at each x [m]")
+    file: str | None = Field(None, description="CSV file of two columns x, z [m] (a header line is "
+                             "allowed), relative to the case file; read when the file is loaded, the "
+                             "effective configuration then lists the points [-]")
+
+    @model_validator(mode="after")
+    def _points(self) -> TopographySection:
+        if self.file is not None and (self.x or self.z):
+            raise ValueError("give the profile either as topography.x and topography.z or as "
+                             "topography.file, not both")
+        if len(self.x) != len(self.z):
+            raise ValueError(f"topography.x and topography.z must have the same length "
+                             f"(got {len(self.x)} and {len(self.z)})")
+        if any(b <= a for a, b in zip(self.x, self.x[1:])):
+            raise ValueError(f"topography.x must be strictly increasing (got {self.x})")
+        return self
+
+
 class EmptySetup(Section):
     """``[setup]`` of a case without options."""
 
@@ -409,6 +433,7 @@ class CaseConfig(Section):
     numerics: NumericsSection = Field(default_factory=NumericsSection)
     gas: GasSection = Field(default_factory=GasSection)
     inflow: InflowSection = Field(default_factory=InflowSection)
+    topography: TopographySection = Field(default_factory=TopographySection)
     output: OutputSection = Field(default_factory=OutputSection)
     setup: Section = Field(default_factory=EmptySetup)
 
@@ -441,6 +466,14 @@ class CaseConfig(Section):
                                          equilibrium_params=self.equilibrium.parameters(),
                                          **self.closure.parameters())
         return self._closure
+
+    def make_topography(self):
+        """The :class:`granflow.topography.Topography` of ``[topography]``, or None (flat base)."""
+        if not self.topography.x:
+            return None
+        from granflow.topography import Topography
+
+        return Topography(x=self.topography.x, z=self.topography.z)
 
     @property
     def gravity_vector(self) -> tuple[float, float]:

@@ -110,6 +110,7 @@ def load_case(path: str | Path, overrides: list[str] | None = None) -> CaseConfi
     case_name = section.get("name", "column_collapse")  # the default of [case] name
     data = apply_overrides(data, list(overrides or []) + environment_overrides(case_name))
     try:
+        data = _read_profile(data, Path(path))
         cfg = validate(data)
     except GranflowInputError as err:
         raise GranflowInputError(f"{path}: {err}") from None
@@ -117,6 +118,24 @@ def load_case(path: str | Path, overrides: list[str] | None = None) -> CaseConfi
     cfg._source_path = str(path)
     cfg._overrides = tuple(overrides or ())
     return cfg
+
+
+def _read_profile(data: dict, path: Path) -> dict:
+    """``topography.file`` (relative to the case file) read into ``topography.x`` and ``.z``."""
+    topo = data.get("topography")
+    if not isinstance(topo, dict) or not isinstance(topo.get("file"), str):
+        return data
+    if topo.get("x") or topo.get("z"):
+        return data  # the schema reports "not both"
+    from granflow.topography import Topography
+
+    csv = Path(topo["file"])
+    try:
+        profile = Topography.from_csv(csv if csv.is_absolute() else path.parent / csv)
+    except GranflowInputError as err:
+        raise GranflowInputError(f"topography.file: {err}") from None
+    rest = {k: v for k, v in topo.items() if k != "file"}
+    return {**data, "topography": {**rest, "x": profile.x.tolist(), "z": profile.z.tolist()}}
 
 
 def _path(loc) -> str:

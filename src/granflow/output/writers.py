@@ -43,6 +43,19 @@ LAST_RECORD_KEY = "run.last_out_t"
 STATE_STEP_KEY = "state.step"
 
 
+def topography_attrs(model) -> dict[str, Any]:
+    """Global attributes of a base profile (none on the flat base): its points
+    ``topography_x``, ``topography_z`` [m] and the staircase the solver used, ``base_height``
+    [m] per cell column (the top of its solid cells, :mod:`granflow.topography`)."""
+    topo = getattr(model, "topography", None)
+    if topo is None:
+        return {}
+    g = model.grid
+    return {"topography_x": np.asarray(topo.x), "topography_z": np.asarray(topo.z),
+            "base_height": g.z0 + np.asarray(model.base_index, dtype=float) * g.dz,
+            "topography_units": "m"}
+
+
 class NetCDFOutputWriter:
     """Write ``outputs`` of a simulation to a NetCDF file each time ``schedule`` is due.
 
@@ -83,7 +96,7 @@ class NetCDFOutputWriter:
         self.path = Path(path)
         self.coords = {**grid_coords(model.grid, length_unit), **dict(coords or {})}
         defaults = {"phi_max": model.material.phi_max, "closure": model.closure.name,
-                    "phi_c": model.ambient.phi_c}
+                    "phi_c": model.ambient.phi_c, **topography_attrs(model)}
         given = dict(global_attrs or {})
         self.global_attrs = {**given, **{k: v for k, v in defaults.items() if k not in given}}
         self._kwargs = {"case_file": case_file, "title": title, "time_units": time_units,
