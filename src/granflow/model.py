@@ -252,7 +252,8 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         A base profile ``z_b(x)``: the cells below it are solid (:mod:`granflow.topography`; the
         base condition ``bcs.bottom`` applies along it). Default none (the flat base of the box).
         So far with the indicator surface, the consistent momentum transport, the direct or
-        PARDISO solver, and neither gas injection nor a source nor a Coulomb base.
+        PARDISO solver, and neither a source nor a Coulomb base; ``U_inj`` enters through the
+        lowest fluid cell of each column (the treads).
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -333,7 +334,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.gas = None if self.gas_coupling is None else self.gas_coupling.gas
         self.source = self._source(source)
         if self.solid is not None:
-            self._check_topography(choice, U_inj)
+            self._check_topography(choice)
 
     def _operators(self, grid: Grid, bcs: VelocityBCs | None, topography: Topography | None) -> Operators:
         """The operators of the box, or of its fluid cells above ``topography``
@@ -349,13 +350,12 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         ops = Operators.build(grid, bcs)
         return ops if self.solid is None else masked_operators(ops, self.solid)
 
-    def _check_topography(self, choice: LinearSolverChoice, U_inj) -> None:
+    def _check_topography(self, choice: LinearSolverChoice) -> None:
         """What a topography does not support yet (issue 14 item 3), named."""
         unsupported = [(not self.indicator, f"surface = {self.surface.value!r} (needs 'indicator')"),
                        (self.advection is not mom.Advection.CONSISTENT,
                         f"advection = {self.advection.value!r} (needs 'consistent')"),
                        (choice is LinearSolverChoice.AMG, "linear_solver = 'amg' (use 'direct' or 'pardiso')"),
-                       (np.any(np.asarray(U_inj) != 0.0), "gas injection through the base (U_inj)"),
                        (self.source is not None, "an inflow source"),
                        (self.wall_friction is not None, "a Coulomb base")]
         bad = [what for flag, what in unsupported if flag]

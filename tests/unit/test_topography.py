@@ -200,3 +200,31 @@ def test_filled_reconstruction_numpy_and_numba_agree(seed):
     b = M._fluxes_numpy(g, c, phi, u, w, dt, 0.6, c_rec)
     for x, y in zip(a[0] + a[1], b[0] + b[1]):
         assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("gas", ["linear", "nonlinear"])
+def test_gas_block_with_injection_on_a_raised_floor_is_the_shorter_boxs(gas):
+    """The pore-gas block (granflow.physics.pore_pressure.gas_operator): no Darcy flux into the
+    rock, and the base injection enters through the lowest fluid cell of each column (the box's
+    bottom row above a flat raised floor): matrix and source equal to the shorter box's."""
+    from granflow.materials import Material
+    from granflow.physics.pore_pressure import gas_operator
+    k = 2
+    g, m, box = _floor(6, 8, k, False)
+    mat = Material()
+    rng = np.random.default_rng(5)
+    phi = np.zeros(g.cell_shape)
+    phi[:, k:] = rng.uniform(0.5, 0.6, (g.nx, g.nz - k))
+    p_f = np.zeros(g.cell_shape)
+    p_f[:, k:] = rng.uniform(0.0, 500.0, (g.nx, g.nz - k))
+    dirichlet = np.zeros(g.cell_shape, dtype=bool)
+    dirichlet[:, :k] = True   # the rock: no gas row (the model's cells without material)
+    dirichlet[:, -1] = True
+    inj = rng.uniform(0.0, 0.01, g.nx)
+    a = gas_operator(g, m, phi, 1e-3, mat, gas=gas, p_f=p_f, dirichlet=dirichlet, injection=inj)
+    b = gas_operator(box.grid, box, phi[:, k:], 1e-3, mat, gas=gas, p_f=p_f[:, k:],
+                     dirichlet=dirichlet[:, k:], injection=inj)
+    fluid = ~m.solid
+    assert abs(a.matrix.tocsr()[fluid][:, fluid] - b.matrix).max() <= 1e-12 * abs(b.matrix).max()
+    assert np.allclose(a.rhs[fluid], b.rhs, rtol=1e-14, atol=0.0) and np.all(a.rhs[~fluid] == 0.0)
+    assert np.count_nonzero(b.rhs) == g.nx

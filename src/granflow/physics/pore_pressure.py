@@ -178,8 +178,11 @@ def _top_cells(grid: Grid) -> np.ndarray:
     return np.arange(grid.nx) * grid.nz + grid.nz - 1
 
 
-def _bottom_cells(grid: Grid) -> np.ndarray:
-    return np.arange(grid.nx) * grid.nz
+def _bottom_cells(grid: Grid, ops: Operators | None = None) -> np.ndarray:
+    """The lowest fluid cell of each column: the bottom row, or above a topography's solid cells
+    (``ops.solid``, :mod:`granflow.topography`: the gas then enters through the treads)."""
+    base = 0 if ops is None or ops.solid is None else np.asarray(ops.solid).reshape(grid.cell_shape).sum(axis=1)
+    return np.arange(grid.nx) * grid.nz + base
 
 
 # --- coefficients ---------------------------------------------------------------------------------
@@ -288,7 +291,7 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
             raise GranflowInputError("gas='nonlinear' needs p_f (the lagged p_f^n)")
         p_old = _p_f(grid, p_f, material, absolute=True)
         gauge_faces = ops.cell_to_face @ p_old
-        gauge_base = p_old[_bottom_cells(grid)]
+        gauge_base = p_old[_bottom_cells(grid, ops)]
     else:
         gauge_faces, gauge_base = 0.0, 0.0
     if math.isinf(dt) and not (open_top or mask.any()):
@@ -306,7 +309,7 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
         top[_top_cells(grid)] = GHOST_FACE_FACTOR * material.p_atm * kappa_top / grid.dz**2
         data[pat.diag] += top
     rhs = np.zeros(grid.n_cells)
-    rhs[_bottom_cells(grid)] = (material.p_atm + gauge_base) * u_inj / grid.dz
+    rhs[_bottom_cells(grid, ops)] = (material.p_atm + gauge_base) * u_inj / grid.dz
     if mask.any():
         keep = (~mask).astype(float)
         scale = float(data[pat.diag][~mask].mean()) if (~mask).any() else 1.0
