@@ -252,8 +252,8 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         A base profile ``z_b(x)``: the cells below it are solid (:mod:`granflow.topography`; the
         base condition ``bcs.bottom`` applies along it). Default none (the flat base of the box).
         So far with the indicator surface, the consistent momentum transport, the direct or
-        PARDISO solver, and neither a source nor a Coulomb base; ``U_inj`` enters through the
-        lowest fluid cell of each column (the treads).
+        PARDISO solver, and no source; ``U_inj`` enters through the lowest fluid cell of each
+        column (the treads), and a Coulomb base caps the treads' friction (its risers are free-slip).
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -356,8 +356,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
                        (self.advection is not mom.Advection.CONSISTENT,
                         f"advection = {self.advection.value!r} (needs 'consistent')"),
                        (choice is LinearSolverChoice.AMG, "linear_solver = 'amg' (use 'direct' or 'pardiso')"),
-                       (self.source is not None, "an inflow source"),
-                       (self.wall_friction is not None, "a Coulomb base")]
+                       (self.source is not None, "an inflow source")]
         bad = [what for flag, what in unsupported if flag]
         if bad:
             raise GranflowInputError(f"Model: a topography does not support {'; '.join(bad)} yet")

@@ -20,9 +20,11 @@ Faces and nodes (MAC grid, :mod:`granflow.operators`)
   neighbouring cells that are fluid: 1/2 on a flat piece of base, 3/4 at the edge of a step,
   1/4 at its foot. On the box walls this is the box's own rule (:data:`WALL_NODE_WEIGHT`).
 * The tangential shear at a node on a flat piece of base (two solid cells below, two fluid cells
-  above, or the same turned by 90 degrees at a step's side) reads the buried face across the
-  wall as the ghost ``sign * mirror`` of the open face on the other side, exactly as a box wall
-  does (NUMERICS.md §8): ``sign = -1`` for no-slip and Coulomb, ``+1`` for free slip. With that,
+  above -- a tread --, or the same turned by 90 degrees at a step's side -- a riser) reads the
+  buried face across the wall as the ghost ``sign * mirror`` of the open face on the other side,
+  exactly as a box wall does (NUMERICS.md §8): ``sign = -1`` for no-slip, ``+1`` for free slip;
+  a Coulomb base has the no-slip ghost on its treads (where its friction acts) and free-slip
+  risers (:func:`profile_ghost_signs`). With that,
   a Couette profile above a raised floor has the same discrete shear and viscous residual as one
   above the box's base (tests/unit/test_topography.py). Every other reference to a wall or buried
   face reads the wall's value, zero.
@@ -45,7 +47,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from granflow.errors import GranflowInputError
-from granflow.grid import Grid, Side
+from granflow.grid import Grid, Side, VelocityBC
 from granflow.operators import GHOST_SIGN, Operators
 
 MIN_FLUID_CELLS = 2
@@ -197,9 +199,11 @@ def _check_mask(grid: Grid, solid) -> np.ndarray:
     return solid
 
 
-def _mirror_ghosts(ops: Operators, cls: FaceClasses, sign: float) -> sp.csr_matrix:
-    """``en`` with each buried tangential face replaced by ``sign`` x its mirror open face across
-    the node (a flat piece of wall), and every other wall or buried entry dropped."""
+def _mirror_ghosts(ops: Operators, cls: FaceClasses, tread: float, riser: float) -> sp.csr_matrix:
+    """``en`` with each buried tangential face replaced by a sign x its mirror open face across
+    the node (a flat piece of wall: ``tread`` for a buried u face under a horizontal piece,
+    ``riser`` for a buried w face beside a vertical one), and every other wall or buried entry
+    dropped."""
     g = ops.grid
     en = ops.en.tocoo()
     rows, cols, vals = en.row.astype(np.int64), en.col.astype(np.int64), en.data.copy()
@@ -225,7 +229,8 @@ def _mirror_ghosts(ops: Operators, cls: FaceClasses, sign: float) -> sp.csr_matr
     keep = cls.open[cols]
     out_rows = np.concatenate([rows[keep], rows[ghost]])
     out_cols = np.concatenate([cols[keep], mirror[ghost]])
-    out_vals = np.concatenate([vals[keep], sign * vals[ghost]])
+    sign = np.where(is_u, tread, riser)
+    out_vals = np.concatenate([vals[keep], sign[ghost] * vals[ghost]])
     m = sp.csr_matrix((out_vals, (out_rows, out_cols)), shape=ops.en.shape)  # duplicates summed
     m.eliminate_zeros()
     return m
@@ -244,6 +249,16 @@ def _mean_over(m: sp.csr_matrix, keep: np.ndarray) -> sp.csr_matrix:
     out = sp.csr_matrix(kept + inside)
     out.eliminate_zeros()
     return out
+
+
+def profile_ghost_signs(base: VelocityBC) -> tuple[float, float]:
+    """Ghost signs ``(tread, riser)`` of the profile for the base condition ``base``: the box
+    base's own sign on both (:data:`granflow.operators.GHOST_SIGN`), but for a Coulomb base whose
+    risers are free-slip (its friction, :mod:`granflow.physics.wall_friction`, acts on the treads:
+    a riser is the staircase's artefact of a slope, not a wall the grains rub along)."""
+    if base is VelocityBC.COULOMB:
+        return GHOST_SIGN[VelocityBC.COULOMB], GHOST_SIGN[VelocityBC.FREE_SLIP]
+    return GHOST_SIGN[base], GHOST_SIGN[base]
 
 
 def masked_operators(ops: Operators, solid) -> Operators:
@@ -276,8 +291,7 @@ def masked_operators(ops: Operators, solid) -> Operators:
     div.eliminate_zeros()
     ec = sp.csr_matrix(ops.ec @ keep)
     ec.eliminate_zeros()
-    sign = GHOST_SIGN[ops.bcs.kind(Side.BOTTOM)]
-    en = _mirror_ghosts(ops, cls, sign)
+    en = _mirror_ghosts(ops, cls, *profile_ghost_signs(ops.bcs.kind(Side.BOTTOM)))
     box_c2n = ops.cell_to_node
     weights = np.asarray(ops.node_weights) * (box_c2n @ fluid.astype(float))
     weights.setflags(write=False)

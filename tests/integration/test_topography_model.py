@@ -28,10 +28,10 @@ K = 3
 TIGHT = {"tol": 1e-11, "max_sweeps": 80}
 
 
-def lagree(picard=None, **numerics):
+def lagree(picard=None, walls=None, **numerics):
     cfg = CaseConfig.from_dict({"case": {"name": "lagree_column"}, "grid": {"nx": N, "nz": N},
                                 "numerics": {"picard": picard or TIGHT, **numerics},
-                                "output": {"figures": False}})
+                                "walls": walls or {}, "output": {"figures": False}})
     return cfg, CASES.get("lagree_column").setup(cfg)
 
 
@@ -55,8 +55,12 @@ def raised(cfg, sim):
     return model, state
 
 
-def test_raised_floor_is_the_shorter_box():
-    cfg, sim = lagree()
+@pytest.mark.parametrize("walls", [{}, {"bottom": "coulomb", "base_friction_deg": 10.0}],
+                         ids=["no_slip", "coulomb"])
+def test_raised_floor_is_the_shorter_box(walls):
+    """The base friction (the wall pressure and strain rate of the lowest fluid cells, and on a
+    Coulomb base the cap of its nodes) acts on the raised floor as on the box's base."""
+    cfg, sim = lagree(walls=walls)
     model, state = raised(cfg, sim)
     box, s0 = sim.model, sim.state
     assert model.base_index.tolist() == [K] * N

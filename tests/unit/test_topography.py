@@ -92,6 +92,20 @@ def test_step_side_ghost_gives_the_exact_shear():
     assert wn[4, 1] == 0.25 and wn[4, 3] == 0.75  # foot and edge of the step
 
 
+def test_coulomb_profile_has_no_slip_treads_and_free_slip_risers():
+    """A Coulomb base caps the friction of its treads (the no-slip ghost) and leaves the risers
+    free-slip: dw/dx of a profile vanishing on the step's side is 0 there, 2 u/dz on a tread."""
+    g = Grid(nx=8, nz=6, Lx=8.0, Lz=6.0)
+    t = Topography(x=[0.0, 3.99, 4.01, 8.0], z=[1.0, 1.0, 3.0, 3.0])
+    m = masked_operators(Operators.build(g, VelocityBCs(bottom="coulomb")), t.solid_cells(g))
+    w = 0.7 * (g.xc[:, None] * np.ones(g.nz + 1) - 4.0)
+    vel = g.pack_velocity(np.zeros(g.xface_shape), w) * m.open_faces
+    assert (m.en @ vel).reshape(g.node_shape)[4, 2] == 0.0
+    u = np.ones(g.xface_shape)
+    vel = g.pack_velocity(u, np.zeros(g.zface_shape)) * m.open_faces
+    assert np.isclose((m.en @ vel).reshape(g.node_shape)[2, 1], 2.0)   # tread at z = 1, x = 2
+
+
 def test_node_weights_are_the_fluid_share_of_the_box_weights():
     g, t, m = _step()
     box = Operators.build(g)
