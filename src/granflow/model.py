@@ -252,8 +252,9 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         A base profile ``z_b(x)``: the cells below it are solid (:mod:`granflow.topography`; the
         base condition ``bcs.bottom`` applies along it). Default none (the flat base of the box).
         So far with the indicator surface, the consistent momentum transport, the direct or
-        PARDISO solver, and no source; ``U_inj`` enters through the lowest fluid cell of each
-        column (the treads), and a Coulomb base caps the treads' friction (its risers are free-slip).
+        PARDISO solver; ``U_inj`` enters through the lowest fluid cell of each column (the
+        treads), a Coulomb base caps the treads' friction (its risers are free-slip), and a base
+        source sits on the lowest fluid cells.
     """
 
     def __init__(self, grid: Grid, closure: Closure, gravity=DEFAULT_GRAVITY,
@@ -355,8 +356,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         unsupported = [(not self.indicator, f"surface = {self.surface.value!r} (needs 'indicator')"),
                        (self.advection is not mom.Advection.CONSISTENT,
                         f"advection = {self.advection.value!r} (needs 'consistent')"),
-                       (choice is LinearSolverChoice.AMG, "linear_solver = 'amg' (use 'direct' or 'pardiso')"),
-                       (self.source is not None, "an inflow source")]
+                       (choice is LinearSolverChoice.AMG, "linear_solver = 'amg' (use 'direct' or 'pardiso')")]
         bad = [what for flag, what in unsupported if flag]
         if bad:
             raise GranflowInputError(f"Model: a topography does not support {'; '.join(bad)} yet")
@@ -371,11 +371,11 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         if source.side is SourceSide.WEST and self.grid.periodic_x:
             raise GranflowInputError("inflow.side = 'west': the grid is periodic in x (grid.periodic_x), it has "
                                      "no west wall; use a base source")
-        if self.outflow and source.side is SourceSide.BOTTOM and source.cells(self.grid)[-1].any():
+        if self.outflow and source.side is SourceSide.BOTTOM and source.cells(self.grid, self.base_index)[-1].any():
             raise GranflowInputError(f"inflow.upper = {source.upper:g}: a base source may not reach the last "
                                      f"column, the outflow's (keep the cell centres below x = "
                                      f"{self.grid.xc[-1]:g}, i.e. upper < {self.grid.xc[-1]:g})")
-        source.cells(self.grid)  # a span that holds no cell is an error now, not at the first step
+        source.cells(self.grid, self.base_index)  # a span that holds no cell is an error now, not at the first step
         return source
 
     def _gas_coupling(self, gas, open_top: bool, U_inj, gas_compressibility) -> GasCoupling | None:
@@ -476,7 +476,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         if self.source is None or not self.source.active(state.t):
             return outflow.NOTHING
         p_f = state.p_f if self.gas_coupling is not None else None
-        after = inflow.refill(self.source, self.grid, state.phi, state.c, p_f)
+        after = inflow.refill(self.source, self.grid, state.phi, state.c, p_f, self.base_index)
         put_in = outflow.exchange(self, (state.phi, state.c, p_f), after, state.vel).negated()
         state.phi, state.c = after[0], after[1]
         if p_f is not None:

@@ -199,7 +199,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
         rhs_u = rho_n * (state.vel / dt - adv) + f_g
     source = None
     if model.source is not None and model.source.active(state.t):  # the supply's velocity, penalised
-        source = inflow.source_terms(model.source, model.grid, model.material.rho_s, dt)
+        source = inflow.source_terms(model.source, model.grid, model.material.rho_s, dt, model.base_index)
         drag = drag + source.penalty
         rhs_u = rhs_u + source.penalty * source.target
     thin, p_fric = None, None
@@ -255,7 +255,8 @@ def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, windo
     vanish beyond it, v1's two-stage MUSCL fluxes are not cut); ``fluxes`` those of ``u_k`` if
     already known. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
     fx, fz = model.transport_fluxes(phi, u_k, dt, c, window) if fluxes is None else fluxes
-    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta)
+    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta,
+                                    base=None if model.solid is None else model.base_index)
     div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
     rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
     return rho, (A, div_dual), rhs_0 - model.material.rho_s * A

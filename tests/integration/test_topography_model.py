@@ -28,10 +28,10 @@ K = 3
 TIGHT = {"tol": 1e-11, "max_sweeps": 80}
 
 
-def lagree(picard=None, walls=None, **numerics):
+def lagree(picard=None, walls=None, inflow=None, **numerics):
     cfg = CaseConfig.from_dict({"case": {"name": "lagree_column"}, "grid": {"nx": N, "nz": N},
                                 "numerics": {"picard": picard or TIGHT, **numerics},
-                                "walls": walls or {}, "output": {"figures": False}})
+                                "walls": walls or {}, "inflow": inflow or {}, "output": {"figures": False}})
     return cfg, CASES.get("lagree_column").setup(cfg)
 
 
@@ -55,12 +55,18 @@ def raised(cfg, sim):
     return model, state
 
 
-@pytest.mark.parametrize("walls", [{}, {"bottom": "coulomb", "base_friction_deg": 10.0}],
-                         ids=["no_slip", "coulomb"])
-def test_raised_floor_is_the_shorter_box(walls):
+@pytest.mark.parametrize("walls, inflow", [
+    ({}, {}), ({"bottom": "coulomb", "base_friction_deg": 10.0}, {}),
+    ({}, {"side": "bottom", "lower": 2.0, "upper": 2.5, "speed": 0.3}),
+    ({}, {"side": "west", "lower": 1.2, "upper": 1.6, "speed": 0.3})],
+    ids=["no_slip", "coulomb", "base_source", "west_source"])
+def test_raised_floor_is_the_shorter_box(walls, inflow):
     """The base friction (the wall pressure and strain rate of the lowest fluid cells, and on a
-    Coulomb base the cap of its nodes) acts on the raised floor as on the box's base."""
-    cfg, sim = lagree(walls=walls)
+    Coulomb base the cap of its nodes) and a source of grains (on the base or the west wall)
+    act on the raised floor as on the box's base."""
+    if inflow:  # the spans are given in the shorter box's z (the west source)
+        inflow = dict(inflow)
+    cfg, sim = lagree(walls=walls, inflow=inflow)
     model, state = raised(cfg, sim)
     box, s0 = sim.model, sim.state
     assert model.base_index.tolist() == [K] * N

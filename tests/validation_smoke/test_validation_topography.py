@@ -22,3 +22,5 @@ def test_quick_run_agrees_between_the_two_frames():
     assert stair["travel"] == pytest.approx(tilted["travel"], rel=0.15)
     assert stair["s_99"] == pytest.approx(tilted["s_99"], rel=0.03)
     assert stair["s_01"] == pytest.approx(tilted["s_01"], rel=0.08)
+    (b,) = out["runout"]   # (b): the example's column down the profile, 24 x 10 cells to 0.05 s
+    assert abs(b["mass_rel_error"]) < 1e-12 and b["front_m"] > 0.1 and -0.2 < b["energy_residual_rel"] < 0.0

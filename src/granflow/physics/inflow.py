@@ -95,14 +95,16 @@ class Source:
         """The source is on at time ``t`` [s]."""
         return self.start <= t < self.stop
 
-    def cells(self, grid) -> np.ndarray:
+    def cells(self, grid, base=None) -> np.ndarray:
         """Boolean mask (nx, nz) of the source cells; GranflowInputError if the span holds no
-        cell centre."""
+        cell centre. ``base`` (int (nx,), optional): the lowest fluid cell of each column above a
+        topography (:mod:`granflow.topography`): a base source sits on it, a west source above it."""
         mask = np.zeros(grid.cell_shape, dtype=bool)
+        base = np.zeros(grid.nx, dtype=np.int64) if base is None else np.asarray(base, dtype=np.int64)
         if self.side is SourceSide.WEST:
-            mask[0, :] = (grid.zc >= self.lower) & (grid.zc <= self.upper)
+            mask[0, :] = (grid.zc >= self.lower) & (grid.zc <= self.upper) & (np.arange(grid.nz) >= base[0])
         else:
-            mask[:, 0] = (grid.xc >= self.lower) & (grid.xc <= self.upper)
+            mask[np.arange(grid.nx), base] = (grid.xc >= self.lower) & (grid.xc <= self.upper)
         along, start, length = (("z", grid.z0, grid.Lz) if self.side is SourceSide.WEST
                                 else ("x", grid.x0, grid.Lx))
         if self.upper > start + length * (1 + 1e-12) or self.lower < start - length * 1e-12:
@@ -115,9 +117,11 @@ class Source:
                                      f"{length / (grid.nz if along == 'z' else grid.nx):g} wide); widen it")
         return mask
 
-    def faces(self, grid) -> tuple[np.ndarray, np.ndarray]:
-        """(mask, target velocity) over the velocity unknowns (``grid.pack_velocity`` layout)."""
-        cells = self.cells(grid)
+    def faces(self, grid, base=None) -> tuple[np.ndarray, np.ndarray]:
+        """(mask, target velocity) over the velocity unknowns (``grid.pack_velocity`` layout);
+        ``base`` as :meth:`cells`."""
+        cells = self.cells(grid, base)
+        base = np.zeros(grid.nx, dtype=np.int64) if base is None else np.asarray(base, dtype=np.int64)
         u_shape, w_shape = (grid.nx + 1, grid.nz), (grid.nx, grid.nz + 1)
         u_m, w_m = np.zeros(u_shape, dtype=bool), np.zeros(w_shape, dtype=bool)
         u_t, w_t = np.zeros(u_shape), np.zeros(w_shape)
@@ -125,19 +129,20 @@ class Source:
             rows = cells[0]
             u_m[1, rows], u_t[1, rows] = True, self.speed
             w_m[0, 1:-1] = rows[1:] & rows[:-1]
-        else:
-            cols = cells[:, 0]
-            w_m[cols, 1], w_t[cols, 1] = True, self.speed
-            u_m[1:-1, 0] = cols[1:] & cols[:-1]
+        else:  # the z-face on top of each source cell, the x-faces between source cells at one level
+            cols = cells[np.arange(grid.nx), base]
+            w_m[cols, base[cols] + 1], w_t[cols, base[cols] + 1] = True, self.speed
+            pair = np.flatnonzero(cols[1:] & cols[:-1] & (base[1:] == base[:-1]))
+            u_m[pair + 1, base[pair]] = True
         mask = grid.pack_velocity(u_m.astype(float), w_m.astype(float)) > 0.5
         return mask, grid.pack_velocity(u_t, w_t)
 
-    def flux(self, grid) -> float:
+    def flux(self, grid, base=None) -> float:
         """Supplied solid volume flux ``phi speed n h`` [m^2 s^-1]: ``n`` source cells of height
         (west) or width (base) ``h`` -- ``phi speed (upper - lower)`` when the span's ends are
         cell faces."""
         h = grid.dz if self.side is SourceSide.WEST else grid.dx
-        return self.phi * self.speed * int(np.count_nonzero(self.cells(grid))) * h
+        return self.phi * self.speed * int(np.count_nonzero(self.cells(grid, base))) * h
 
 
 @dataclass(frozen=True)
@@ -156,17 +161,18 @@ class SourceTerms:
         return dV * float(np.sum(self.penalty * (self.target - u) * u))
 
 
-def source_terms(source: Source, grid, rho_s: float, dt: float) -> SourceTerms:
-    """:class:`SourceTerms` of ``source`` for a step ``dt`` [s] (module docstring)."""
-    mask, target = source.faces(grid)
+def source_terms(source: Source, grid, rho_s: float, dt: float, base=None) -> SourceTerms:
+    """:class:`SourceTerms` of ``source`` for a step ``dt`` [s] (module docstring; ``base`` as
+    :meth:`Source.cells`)."""
+    mask, target = source.faces(grid, base)
     lam = PENALTY * rho_s * source.phi / dt
     return SourceTerms(penalty=np.where(mask, lam, 0.0), target=np.where(mask, target, 0.0),
-                       cells=source.cells(grid).ravel())
+                       cells=source.cells(grid, base).ravel())
 
 
-def refill(source: Source, grid, phi, c, p_f):
+def refill(source: Source, grid, phi, c, p_f, base=None):
     """The fields with the source cells refilled (copies): ``phi_in``, ``c = 1``, ``p_f = 0``."""
-    cells = source.cells(grid)
+    cells = source.cells(grid, base)
     phi_new = np.where(cells, source.phi, phi)
     c_new = None if c is None else np.where(cells, 1.0, c)
     pf_new = None if p_f is None else np.where(cells.ravel(), 0.0, np.ravel(p_f)).reshape(np.shape(p_f))

@@ -82,9 +82,29 @@ def _upwind(flux, lo, hi, s_lo, s_hi, second_order: bool):
     return np.where(flux > 0.0, lo + HALF * s_lo, hi - HALF * s_hi)
 
 
+def tread_filled(grid: Grid, u: np.ndarray, base) -> np.ndarray:
+    """The x-face velocities ``u`` (nx+1, nz) with the faces buried under a topography's tread
+    (:mod:`granflow.topography`; ``base`` the lowest fluid cell of each column) set to the
+    lowest open face above them: the z-slope of the first fluid row is then 0, the box's rule at
+    its base (:func:`_slopes`), so a raised floor transports momentum as the box's base does. No
+    flux crosses a tread (its z-faces are walls), so the filled values are never carried."""
+    base = np.asarray(base, dtype=np.int64)
+    u = np.array(u, dtype=float)
+    if grid.periodic_x:
+        cols, left, right = np.arange(grid.nx), np.roll(base, 1), base
+    else:
+        cols, left, right = np.arange(1, grid.nx), base[:-1], base[1:]
+    top = np.minimum(np.maximum(left, right), grid.nz - 1)
+    below = np.arange(grid.nz)[None, :] < np.minimum(left, right)[:, None]
+    u[cols] = np.where(below, u[cols, top][:, None], u[cols])
+    if grid.periodic_x:
+        u[-1] = u[0]
+    return u
+
+
 def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
                              second_order: bool = True, window=None,
-                             theta: float = MC_THETA) -> np.ndarray:
+                             theta: float = MC_THETA, base=None) -> np.ndarray:
     """``A = div_dual(F (x) u~)`` at the velocity unknowns [m s^-2] (module docstring, eq. 1).
 
     Parameters
@@ -104,6 +124,8 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
         face with a flux stays inside).
     theta : float
         Slope limiter parameter, 1 (minmod) to 2 (monotonized central, default); module docstring.
+    base : int array (nx,), optional
+        The lowest fluid cell of each column above a topography (:func:`tread_filled`).
 
     Returns
     -------
@@ -111,6 +133,8 @@ def momentum_flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray, vel,
         ``rho_s A`` is the momentum flux divergence [N m^-3].
     """
     u, w = grid.unpack_velocity(vel)
+    if base is not None:
+        u = tread_filled(grid, u, base)
     if window is None:
         a_u, b = _divergence(u, w, fx, fz, grid.dx, grid.dz, grid.periodic_x, second_order, theta)
         return np.concatenate([a_u.ravel(), b.ravel()])
