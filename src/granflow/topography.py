@@ -127,16 +127,6 @@ class Topography:
         """Base height ``z_b`` at ``x`` [m] (linear between the points, constant beyond)."""
         return np.interp(np.asarray(x, dtype=float), self.x, self.z)
 
-    def slope_deg(self, x) -> np.ndarray:
-        """Local slope angle of the profile at ``x`` [degrees], positive where the base descends
-        towards +x (0 beyond the ends and on one point)."""
-        if self.x.size < 2:
-            return np.zeros_like(np.asarray(x, dtype=float))
-        k = np.clip(np.searchsorted(self.x, x, side="right") - 1, 0, self.x.size - 2)
-        grad = np.diff(self.z)[k] / np.diff(self.x)[k]
-        inside = (np.asarray(x) >= self.x[0]) & (np.asarray(x) <= self.x[-1])
-        return np.where(inside, np.degrees(np.arctan(-grad)), 0.0)
-
     def solid_cells(self, grid: Grid) -> np.ndarray:
         """bool ``(nx, nz)``: cells whose centre is below the profile (module docstring).
 
@@ -157,10 +147,6 @@ class Topography:
                 f"{MIN_FLUID_CELLS} are needed: lower the profile or raise grid.Lz")
         solid.setflags(write=False)
         return solid
-
-    def base_cell_index(self, grid: Grid) -> np.ndarray:
-        """int ``(nx,)``: index j of the lowest fluid cell of each column."""
-        return self.solid_cells(grid).sum(axis=1)
 
 
 @dataclass(frozen=True)
@@ -307,13 +293,15 @@ def masked_operators(ops: Operators, solid) -> Operators:
         cell_to_node=_mean_over(box_c2n, fluid), solid=solid_flat, open_faces=open_faces)
 
 
-def fluid_height(grid: Grid, solid) -> np.ndarray:
-    """Base height of the staircase in each column, ``z0 + n_solid dz`` [m], shape ``(nx,)``."""
-    solid = _check_mask(grid, solid)
-    return grid.z0 + solid.sum(axis=1) * grid.dz
+def base_height(grid: Grid, solid=None) -> np.ndarray:
+    """Height of the staircase's base in each column, ``z0 + n_solid dz`` [m], shape ``(nx,)``
+    (``z0`` everywhere without a solid mask)."""
+    if solid is None:
+        return np.full(grid.nx, grid.z0)
+    return grid.z0 + _check_mask(grid, solid).sum(axis=1) * grid.dz
 
 
 def staircase_error(topography: Topography, grid: Grid) -> float:
     """Largest |staircase base - profile| over the cell centres [m] (at most dz/2 by construction)."""
-    zs = fluid_height(grid, topography.solid_cells(grid))
+    zs = base_height(grid, topography.solid_cells(grid))
     return float(np.max(np.abs(zs - topography.height(grid.xc)), initial=0.0))

@@ -128,7 +128,6 @@ def test_face_classes_of_a_step():
 def test_profile_height_slope_and_staircase():
     t = Topography(x=[0.0, 1.0, 2.0], z=[1.0, 0.0, 0.0])
     assert np.allclose(t.height([-1.0, 0.5, 1.5, 9.0]), [1.0, 0.5, 0.0, 0.0])
-    assert np.allclose(t.slope_deg([0.5, 1.5, 5.0]), [45.0, 0.0, 0.0])
     for n in (10, 20, 40):
         g = Grid(nx=n, nz=n, Lx=2.0, Lz=2.0)
         assert staircase_error(t, g) <= 0.5 * g.dz + 1e-12

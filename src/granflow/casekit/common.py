@@ -161,14 +161,6 @@ def flat_base_problems(config: CaseConfig, case: str) -> list[tuple[str, str]]:
     return []
 
 
-def base_height(grid: Grid, topography) -> np.ndarray:
-    """Height of the staircase base in each column [m], shape (nx,) (``grid.z0`` without a
-    topography): the top of the column's solid cells (:mod:`granflow.topography`)."""
-    if topography is None:
-        return np.full(grid.nx, grid.z0)
-    return grid.z0 + topography.solid_cells(grid).sum(axis=1) * grid.dz
-
-
 def column_on_base(grid: Grid, x0: float, x1: float, height: float, base: np.ndarray) -> np.ndarray:
     """Fraction of each cell's area inside ``[x0, x1] x [base_i, base_i + height]`` [-], shape
     (nx, nz): a rectangle of grains standing on the (staircase) base ``base`` [m] of each column

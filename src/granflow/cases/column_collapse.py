@@ -27,7 +27,6 @@ import numpy as np
 from pydantic import Field
 
 from granflow.casekit.common import (
-    base_height,
     column_on_base,
     extent_problems,
     gas_problems,
@@ -51,6 +50,7 @@ from granflow.casekit import headlines
 from granflow.casekit.registry import CASES
 from granflow.config import CaseConfig, Section
 from granflow.simulation import Simulation
+from granflow.topography import base_height
 
 PREPARATION_ATTRIBUTE = "preparation"
 """Attribute of the Simulation holding the preparation result (read by :func:`diagnostics`)."""
@@ -165,5 +165,5 @@ def setup(config: CaseConfig) -> Simulation:
     model = make_model(config)
     g = model.grid
     # the column stands on the base: the box's, or the staircase of a [topography]
-    phi = packing(config) * column_on_base(g, 0.0, s.L0, s.H0, base_height(g, model.topography))
+    phi = packing(config) * column_on_base(g, 0.0, s.L0, s.H0, base_height(g, model.solid))
     return make_simulation(config, model, initial_state(model, phi, s.b0))

@@ -31,6 +31,7 @@ from granflow.output.checkpoint import CheckpointManager
 from granflow.output.fields import check_outputs, grid_coords
 from granflow.output.netcdf import NetCDFFormat, NetCDFWriter
 from granflow.schedules import Schedule, check_schedule
+from granflow.topography import base_height
 
 if TYPE_CHECKING:
     from granflow.model import Model
@@ -50,10 +51,8 @@ def topography_attrs(model) -> dict[str, Any]:
     topo = getattr(model, "topography", None)
     if topo is None:
         return {}
-    g = model.grid
     return {"topography_x": np.asarray(topo.x), "topography_z": np.asarray(topo.z),
-            "base_height": g.z0 + np.asarray(model.base_index, dtype=float) * g.dz,
-            "topography_units": "m"}
+            "base_height": base_height(model.grid, model.solid), "topography_units": "m"}
 
 
 class NetCDFOutputWriter:
