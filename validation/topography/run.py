@@ -117,7 +117,14 @@ def measures(phi, s) -> dict:
             "s_01": float(np.interp(0.01, cum, ss)), "s_99": float(np.interp(0.99, cum, ss))}
 
 
-def run(frame: str, n: int, t_end: float = T_END) -> dict:
+def run(resolution: int, quick: bool = False) -> list[dict]:
+    """Part (a) at ``resolution`` cells per unit length: the tilted and the staircase run (to
+    t = 1 with ``quick``, else to :data:`T_END`)."""
+    t_end = QUICK["t_end"] if quick else T_END
+    return [run_frame(frame, resolution, t_end) for frame in ("tilted", "staircase")]
+
+
+def run_frame(frame: str, n: int, t_end: float = T_END) -> dict:
     model, phi, s = (tilted if frame == "tilted" else staircase)(n)
     sim = Simulation(model, model.initial_state(phi), stop_time=t_end, dt_max=DT_MAX)
     rows = [{"t": 0.0, **measures(sim.state.phi, s)}]
@@ -199,7 +206,7 @@ def main(argv=None) -> dict:
     levels, t_end = (QUICK["levels"], QUICK["t_end"]) if args.quick else (tuple(args.levels), T_END)
     out: dict = {}
     if args.part in ("slope", "all"):
-        out["runs"] = [run(frame, n, t_end) for n in levels for frame in ("tilted", "staircase")]
+        out["runs"] = [r for n in levels for r in run(n, args.quick)]
         print(table(out["runs"]))
     if args.part in ("runout", "all"):
         grids = QUICK_RUNOUT if args.quick else RUNOUT_LEVELS
