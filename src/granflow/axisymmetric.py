@@ -51,7 +51,6 @@ from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side, VelocityBC, VelocityBCs
 from granflow.operators import Operators
 
-THIRD = 1.0 / 3.0
 DEVIATOR_WEIGHT = 2.0 / 3.0
 """``2/3``: ``2 eta sum_i S_ii^2 = (2 eta / 3) sum_{i<j} (e_ii - e_jj)^2``."""
 
