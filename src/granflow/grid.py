@@ -45,6 +45,7 @@ import numbers
 from dataclasses import dataclass
 from enum import Enum
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
@@ -65,6 +66,26 @@ class Side(Enum):
     """z = z0 (the base)."""
     TOP = "top"
     """z = z0 + Lz."""
+
+
+class Geometry(str, Enum):
+    """What the grid's x axis is (issue 14 item 4)."""
+
+    PLANE = "plane"
+    """A vertical plane, fields per unit width (the paper's set-up)."""
+    AXISYMMETRIC = "axisymmetric"
+    """(r, z): x is the radius, the west side ``x0 = 0`` the axis of symmetry; every integral is
+    over the full cylinder (:attr:`Grid.cell_volumes`, :mod:`granflow.axisymmetric`)."""
+
+
+class RadialMetric(NamedTuple):
+    """Circumferences ``2 pi r`` of an axisymmetric grid [m] as column vectors (broadcast over z):
+    ``faces`` (nx + 1, 1) at the x-faces, ``cells`` (nx, 1) at the cell centres. A cell's volume
+    is ``cells dx dz`` [m^3]; the area of its x-faces ``faces dz``, of its z-faces ``cells dx``
+    [m^2]."""
+
+    faces: np.ndarray
+    cells: np.ndarray
 
 
 class VelocityBC(Enum):
@@ -173,6 +194,9 @@ class Grid:
         Coordinates of the bottom-left corner [m]. Default 0.
     periodic_x : bool, optional
         Wrap the x direction (period ``Lx``; module docstring). Default False (closed box).
+    geometry : Geometry or str, optional
+        ``"plane"`` (default) or ``"axisymmetric"``: x is the radius r, ``x0`` must be 0 (the
+        axis) and the grid not periodic (:class:`Geometry`).
 
     Raises
     ------
@@ -202,6 +226,7 @@ class Grid:
     x0: float = 0.0
     z0: float = 0.0
     periodic_x: bool = False
+    geometry: Geometry = Geometry.PLANE
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "nx", _check_count("nx", self.nx))
@@ -213,6 +238,17 @@ class Grid:
         if not isinstance(self.periodic_x, (bool, np.bool_)):
             raise GranflowInputError(f"Grid: periodic_x must be a bool, got {self.periodic_x!r}")
         object.__setattr__(self, "periodic_x", bool(self.periodic_x))
+        try:
+            object.__setattr__(self, "geometry", Geometry(self.geometry))
+        except ValueError:
+            raise GranflowInputError(f"Grid: geometry must be one of {[k.value for k in Geometry]}, "
+                                     f"got {self.geometry!r}") from None
+        if self.geometry is Geometry.AXISYMMETRIC:
+            if self.periodic_x:
+                raise GranflowInputError("Grid: an axisymmetric grid cannot be periodic in r (periodic_x)")
+            if self.x0 != 0.0:
+                raise GranflowInputError(f"Grid: the axis of an axisymmetric grid is r = 0, so x0 must be 0 "
+                                         f"(got {self.x0})")
 
     # --- spacings ---------------------------------------------------------------------------
     @property
@@ -227,8 +263,42 @@ class Grid:
 
     @property
     def cell_volume(self) -> float:
-        """Control volume of a cell or of an interior face, ``dx * dz`` [m^2 per unit width]."""
+        """Control volume of a cell or of an interior face, ``dx * dz`` [m^2 per unit width]; in
+        an axisymmetric grid the area of its (r, z) section (the volume is :attr:`cell_volumes`)."""
         return self.dx * self.dz
+
+    @property
+    def axisymmetric(self) -> bool:
+        """True for an (r, z) grid (:class:`Geometry`)."""
+        return self.geometry is Geometry.AXISYMMETRIC
+
+    @cached_property
+    def radial(self) -> RadialMetric | None:
+        """The circumferences of an axisymmetric grid (:class:`RadialMetric`), None in a plane."""
+        if not self.axisymmetric:
+            return None
+        return RadialMetric(faces=_readonly(2.0 * np.pi * self.xf[:, None]),
+                            cells=_readonly(2.0 * np.pi * self.xc[:, None]))
+
+    @cached_property
+    def unknown_metric(self) -> np.ndarray | None:
+        """``2 pi r`` at the velocity unknowns (n_unknowns,) [m]: the dual cell of a u face is
+        centred on its radius, that of a w face on its cell's; None in a plane. A momentum row
+        times this weight is integrated over the full circumference."""
+        if not self.axisymmetric:
+            return None
+        rad = self.radial
+        return _readonly(np.concatenate([np.repeat(rad.faces[1:-1, 0], self.nz),
+                                         np.repeat(rad.cells[:, 0], self.nz - 1)]))
+
+    @cached_property
+    def cell_volumes(self) -> np.ndarray:
+        """Control volume of every cell, (nx, nz): ``dx dz`` [m^2 per unit width] in a plane,
+        ``2 pi r_c dx dz`` [m^3] in an axisymmetric grid."""
+        vol = np.full(self.cell_shape, self.cell_volume)
+        if self.axisymmetric:
+            vol = vol * self.radial.cells
+        return _readonly(vol)
 
     # --- 1-D coordinates --------------------------------------------------------------------
     @cached_property

@@ -114,17 +114,24 @@ def _boundary_variation(left, right, axis: int, periodic: bool):
     return np.concatenate([zero, jump], axis=axis) + np.concatenate([jump, zero], axis=axis)
 
 
-def limit_to_lower_bound(phi, fx, fz, dt: float, dx: float, dz: float, periodic: bool):
+def limit_to_lower_bound(phi, fx, fz, dt: float, dx: float, dz: float, periodic: bool, radial=None):
     """Fluxes of one forward-Euler stage ``phi - dt div F`` scaled so that no cell's outflow
     exceeds its content: every flux *leaving* a cell whose total outflow ``dt sum F_out / h``
     exceeds ``phi`` is multiplied by ``phi / outflow`` (conservative). One pass suffices: a cell
     keeps at least ``phi - outflow >= 0`` plus inflows, which limiting only lowers towards 0.
-    Returns ``(fx, fz)`` (copies); the periodic image column is kept."""
+    Returns ``(fx, fz)`` (copies); the periodic image column is kept. ``radial``: the
+    :class:`granflow.grid.RadialMetric` of an axisymmetric grid (the outflow through each x-face
+    weighted by its area over the cell's volume)."""
     fx, fz = fx.copy(), fz.copy()
     cx, cz = dt / dx, dt / dz
-    out = (cx * (np.maximum(fx[1:, :], 0.0) + np.maximum(-fx[:-1, :], 0.0))
-           + cz * (np.maximum(fz[:, 1:], 0.0) + np.maximum(-fz[:, :-1], 0.0)))
-    over = out > phi
+    if radial is None:
+        out = (cx * (np.maximum(fx[1:, :], 0.0) + np.maximum(-fx[:-1, :], 0.0))
+               + cz * (np.maximum(fz[:, 1:], 0.0) + np.maximum(-fz[:, :-1], 0.0)))
+    else:
+        out = (cx * (radial.faces[1:] * np.maximum(fx[1:, :], 0.0)
+                     + radial.faces[:-1] * np.maximum(-fx[:-1, :], 0.0)) / radial.cells
+               + cz * (np.maximum(fz[:, 1:], 0.0) + np.maximum(-fz[:, :-1], 0.0)))
+    over = out > np.maximum(phi, 0.0)  # (a cell at phi = -1e-20 with no outflow needs nothing)
     if not np.any(over):
         return fx, fz
     r = np.where(over, np.maximum(phi, 0.0) / np.where(over, out, 1.0), 1.0)

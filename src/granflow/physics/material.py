@@ -71,6 +71,7 @@ from granflow.physics.transport import (
     BOUND_RTOL,
     HALF,
     face_velocities,
+    face_rates,
     flux_divergence,
     limit_to_upper_bound,
     limiter_passes,
@@ -153,7 +154,8 @@ def solid_fluxes(grid: Grid, psi, material, fcx, fcz) -> tuple[np.ndarray, np.nd
 def consistent_bounds(c, phi, phi_max: float, cell_volume: float,
                       psi_min: float = 0.0) -> tuple[np.ndarray, float]:
     """``c`` made consistent with the grains it holds (module docstring, "Bounds"): returns the
-    adjusted ``c`` and the material volume changed [m^2 per unit width]. ``psi_min`` > 0: the
+    adjusted ``c`` and the material volume changed [m^2 per unit width; m^3 with the cells'
+    volumes of an axisymmetric grid as ``cell_volume``]. ``psi_min`` > 0: the
     loosest packing of the material, ``c <= phi / psi_min`` (a material volume with almost no
     grains -- a thin cell dilated at the closure's rate under a vanishing pressure -- would
     otherwise carry a pressure row at a packing far below the dense regime)."""
@@ -162,6 +164,8 @@ def consistent_bounds(c, phi, phi_max: float, cell_volume: float,
     upper = np.minimum(np.maximum(phi, 0.0) / psi_min, 1.0) if psi_min > 0 else 1.0
     new = np.clip(c, np.maximum(phi, 0.0) / phi_max, upper)
     new = np.where(phi > PHI_EMPTY, new, 0.0)
+    if np.ndim(cell_volume):  # the cells' volumes (axisymmetric)
+        return new, float(np.sum(cell_volume * np.abs(new - c)))
     return new, cell_volume * float(np.sum(np.abs(new - c)))
 
 
@@ -261,14 +265,19 @@ def overfill_correction(grid: Grid, c, fx, fz, u, w, dt: float) -> tuple[np.ndar
     excess = np.maximum(c - dt * flux_divergence(grid, fx, fz) - 1.0, 0.0)
     if not np.any(excess > 0.0):
         return fx, fz
-    cx, cz = dt / grid.dx, dt / grid.dz
-    spare_e = np.where(u[1:] > 0, cx * np.maximum(u[1:] - fx[1:], 0.0), 0.0)
-    spare_w = np.where(u[:-1] < 0, cx * np.maximum(fx[:-1] - u[:-1], 0.0), 0.0)
+    cx = dt / grid.dx
+    cw, ce, cz = face_rates(grid, dt)  # dt/dx, dt/dx, dt/dz in a plane
+    spare_e = np.where(u[1:] > 0, ce * np.maximum(u[1:] - fx[1:], 0.0), 0.0)
+    spare_w = np.where(u[:-1] < 0, cw * np.maximum(fx[:-1] - u[:-1], 0.0), 0.0)
     spare_n = np.where(w[:, 1:] > 0, cz * np.maximum(w[:, 1:] - fz[:, 1:], 0.0), 0.0)
     spare_s = np.where(w[:, :-1] < 0, cz * np.maximum(fz[:, :-1] - w[:, :-1], 0.0), 0.0)
     total = spare_e + spare_w + spare_n + spare_s
     share = np.divide(np.minimum(excess, total), total, out=np.zeros_like(total), where=total > 0)
-    add_e, add_w = share * spare_e / cx, share * spare_w / cx
+    if getattr(grid, "radial", None) is None:
+        add_e, add_w = share * spare_e / cx, share * spare_w / cx
+    else:  # the axis face has no area (and u = 0): nothing to add there
+        add_e = np.divide(share * spare_e, ce, out=np.zeros_like(spare_e), where=spare_e > 0)
+        add_w = np.divide(share * spare_w, cw, out=np.zeros_like(spare_w), where=spare_w > 0)
     fx[1:] += add_e
     fx[:-1] -= add_w
     if grid.periodic_x:  # fx[0] and the image fx[nx] are one face: both get both increments
@@ -302,7 +311,7 @@ def _fluxes(grid: Grid, c, phi, u, w, dt: float, phi_max: float, c_rec=None):
     (:mod:`granflow.physics.material_kernel`) when Numba is installed, else the NumPy reference
     :func:`_fluxes_numpy` (same arguments and result; equal bit for bit on the cases tested, the
     held-back volume to round-off: a sum in another order)."""
-    if not kernel_available():
+    if not kernel_available() or getattr(grid, "radial", None) is not None:  # the kernel is plane
         return _fluxes_numpy(grid, c, phi, u, w, dt, phi_max, c_rec)
     return fluxes_compiled(c, phi, u, w, dt, grid.dx, grid.dz, phi_max,
                            phi_max * (1.0 + BOUND_RTOL), C_MIN, grid.periodic_x, limiter_passes(grid), c_rec)
@@ -313,10 +322,11 @@ def _fluxes_numpy(grid: Grid, c, phi, u, w, dt: float, phi_max: float, c_rec=Non
     ``c >= 0``; MUSCL packing fluxes, ``phi >= 0``, ``phi <= phi_max``."""
     c_rec = c if c_rec is None else c_rec
     fcx, fcz = overfill_correction(grid, c, *volume_fluxes(grid, c_rec, u, w, dt), u, w, dt)
-    fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x)
+    rad = getattr(grid, "radial", None)
+    fcx, fcz = limit_to_lower_bound(c, fcx, fcz, dt, grid.dx, grid.dz, grid.periodic_x, rad)
     gx, gz = solid_fluxes(grid, packing(c, phi), c > C_MIN, fcx, fcz)
     # a MUSCL psi_f above the donor's psi can take more grains than a draining cell holds
-    gx, gz = limit_to_lower_bound(phi, gx, gz, dt, grid.dx, grid.dz, grid.periodic_x)
+    gx, gz = limit_to_lower_bound(phi, gx, gz, dt, grid.dx, grid.dz, grid.periodic_x, rad)
     gx, gz, held = limit_to_upper_bound(grid, phi, gx, gz, dt, phi_max)
     return (fcx, fcz), (gx, gz), held
 
@@ -354,6 +364,8 @@ class _Window:
     dx: float
     dz: float
     periodic_x: bool
+    radial: object = None
+    """The :class:`granflow.grid.RadialMetric` of the window's rows (axisymmetric), else None."""
 
     @property
     def cell_shape(self) -> tuple[int, int]:
@@ -370,6 +382,11 @@ class _Window:
     @property
     def cell_volume(self) -> float:
         return self.dx * self.dz
+
+    @property
+    def cell_volumes(self):
+        """As :attr:`granflow.grid.Grid.cell_volumes` (a scalar in a plane)."""
+        return self.cell_volume if self.radial is None else self.cell_volume * self.radial.cells
 
 
 def material_window(grid: Grid, c, phi) -> tuple[slice, slice] | None:
@@ -394,18 +411,20 @@ def material_window(grid: Grid, c, phi) -> tuple[slice, slice] | None:
 
 def _advect(geom, c, phi, u, w, dt: float, phi_max: float, dilation, psi_min: float, c_rec=None):
     """:func:`advect_material` on whole face arrays of ``geom`` (a Grid or a :class:`_Window`)."""
-    div_u = np.diff(u, axis=0) / geom.dx + np.diff(w, axis=1) / geom.dz
+    div_u = flux_divergence(geom, u, w)
     c1, phi_new, fluxes, held = _stage(geom, c, phi, u, w, div_u, dt, phi_max, dilation, c_rec)
-    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, geom.cell_volume, psi_min)
+    c_new, adjusted = consistent_bounds(c1, phi_new, phi_max, geom.cell_volume if geom.radial is None else geom.cell_volumes, psi_min)
     return c_new, phi_new, fluxes, held, adjusted
 
 
 def _window_geometry(grid: Grid, win: tuple[slice, slice]) -> tuple:
     """``(_Window, x-face slice, z-face slice)`` of the cell ranges ``win``."""
     xs, zs = win
-    sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
-                  periodic_x=grid.periodic_x)
     xf = slice(0, grid.nx + 1) if grid.periodic_x else slice(xs.start, xs.stop + 1)
+    rad = grid.radial
+    sub = _Window(nx=xs.stop - xs.start, nz=zs.stop - zs.start, dx=grid.dx, dz=grid.dz,
+                  periodic_x=grid.periodic_x,
+                  radial=None if rad is None else type(rad)(faces=rad.faces[xf], cells=rad.cells[xs]))
     return sub, xf, slice(zs.start, zs.stop + 1)
 
 

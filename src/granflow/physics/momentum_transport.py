@@ -48,7 +48,7 @@ from granflow.physics.momentum_kernel import (
     dual_mass_divergence_compiled,
     kernel_available,
 )
-from granflow.physics.transport import flux_divergence
+from granflow.physics.transport import plane_flux_divergence
 
 HALF = 0.5
 MINMOD_THETA = 1.0
@@ -210,10 +210,14 @@ def dual_mass_divergence(ops, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
     the dual-cell solid fraction, ``phi_f^{n+1} = phi_f^n - dt div_dual F`` (module docstring).
     :func:`momentum_flux_divergence` of a uniform velocity ``U`` along a periodic direction equals
     ``U div_dual F`` (tested): the dual mass fluxes are the ones this identity implies. A compiled
-    loop when Numba is installed (the same products and sums, bit for bit), else the sparse product."""
+    loop when Numba is installed (the same products and sums, bit for bit), else the sparse product.
+    Axisymmetric: given the r-weighted fluxes ``(2 pi r_f fx, 2 pi r_c fz)`` it returns the
+    r-weighted rate (the dual cell's volume is ``2 pi r dx dz``, ``r`` the unknown's radius:
+    divide by :attr:`granflow.grid.Grid.unknown_metric`), as :func:`momentum_flux_divergence`
+    does; :func:`axisymmetric_transport`."""
     if kernel_available():
         return dual_mass_divergence_compiled(fx, fz, ops.grid.dx, ops.grid.dz, ops.grid.periodic_x)
-    return ops.cell_to_face @ flux_divergence(ops.grid, fx, fz).ravel()
+    return ops.cell_to_face @ plane_flux_divergence(ops.grid, fx, fz).ravel()
 
 
 def advection_energy_rate(rho_s: float, cell_volume: float, A: np.ndarray, div_dual: np.ndarray,
@@ -223,3 +227,21 @@ def advection_energy_rate(rho_s: float, cell_volume: float, A: np.ndarray, div_d
     zero for centred face values, >= 0 (dissipation) for first-order upwind ones."""
     vel_new = np.asarray(vel_new, dtype=float)
     return rho_s * cell_volume * float(vel_new @ A - HALF * (vel_new * vel_new) @ div_dual)
+
+
+def axisymmetric_transport(ops, fx: np.ndarray, fz: np.ndarray, vel, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+    """``(A_w, div_dual_w)``: :func:`momentum_flux_divergence` and :func:`dual_mass_divergence` of an
+    axisymmetric grid, both times the circumference ``2 pi r`` of each velocity unknown
+    (:attr:`granflow.grid.Grid.unknown_metric`) [m^2 s^-2, m s^-1].
+
+    The momentum of a u face's dual cell (half of each neighbouring cell, volume ``2 pi r_f dx
+    dz`` on a uniform grid) changes by the fluxes through its faces: at the cell centres
+    ``(G_k + G_{k+1})/2`` with ``G = 2 pi r_f fx`` the fluxes through the x-faces' areas, at the
+    nodes the mean of the z-fluxes ``2 pi r_c fz`` of the two cells; a w face's dual cell sits in
+    one column. These are exactly the plane formulas applied to the r-weighted fluxes, so the
+    dual-cell mass obeys the discrete conservation law as in the plane case, and the radial
+    momentum needs no extra term (no swirl: ``d_t(rho u) + (1/r) d_r(r rho u u) + d_z(rho u w)``).
+    ``kwargs`` go to :func:`momentum_flux_divergence`."""
+    rad = ops.grid.radial
+    gx, gz = rad.faces * fx, rad.cells * fz
+    return momentum_flux_divergence(ops.grid, gx, gz, vel, **kwargs), dual_mass_divergence(ops, gx, gz)

@@ -138,8 +138,31 @@ class PhiScheme(str, Enum):
 
 
 def flux_divergence(grid: Grid, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
-    """Cell divergence of face fluxes, ``(fx_e - fx_w)/dx + (fz_n - fz_s)/dz``, shape (nx, nz)."""
+    """Cell divergence of face fluxes, ``(fx_e - fx_w)/dx + (fz_n - fz_s)/dz``, shape (nx, nz); on
+    an axisymmetric grid (``grid.radial``, :class:`granflow.grid.RadialMetric`)
+    ``(r_e fx_e - r_w fx_w)/(r_c dx) + (fz_n - fz_s)/dz`` (the outflow per cell volume)."""
+    rad = getattr(grid, "radial", None)
+    if rad is None:
+        return plane_flux_divergence(grid, fx, fz)
+    return np.diff(rad.faces * fx, axis=0) / (grid.dx * rad.cells) + np.diff(fz, axis=1) / grid.dz
+
+
+def plane_flux_divergence(grid, fx: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    """``(fx_e - fx_w)/dx + (fz_n - fz_s)/dz`` whatever the geometry (r-weighted fluxes give the
+    r-weighted divergence)."""
     return np.diff(fx, axis=0) / grid.dx + np.diff(fz, axis=1) / grid.dz
+
+
+def face_rates(grid, dt: float):
+    """``dt`` times the area of the west, east and of each z-face of a cell over its volume,
+    ``(a_w, a_e, a_z)`` [-]: the part of a cell a unit flux empties through that face in a step.
+    ``dt/dx, dt/dx, dt/dz`` in a plane; axisymmetric, ``a_w = dt r_w/(r_c dx)``,
+    ``a_e = dt r_e/(r_c dx)`` (column vectors, ``a_w = 0`` on the axis)."""
+    cx, cz = dt / grid.dx, dt / grid.dz
+    rad = getattr(grid, "radial", None)
+    if rad is None:
+        return cx, cx, cz
+    return cx * rad.faces[:-1] / rad.cells, cx * rad.faces[1:] / rad.cells, cz
 
 
 def cfl_number(grid: Grid, vel, dt: float, cells=None) -> float:
@@ -152,8 +175,13 @@ def cfl_number(grid: Grid, vel, dt: float, cells=None) -> float:
     :meth:`granflow.model.Model.transport_cells` gives them.
     """
     u, w = face_velocities(grid, vel)
-    rate = (np.maximum(np.abs(u[:-1, :]), np.abs(u[1:, :])) / grid.dx
-            + np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) / grid.dz)
+    if getattr(grid, "radial", None) is not None:  # the face areas over the cell volume (face_rates)
+        a_w, a_e, a_z = face_rates(grid, 1.0)
+        rate = (np.maximum(np.abs(u[:-1, :]) * np.maximum(a_w, 1.0 / grid.dx),
+                           np.abs(u[1:, :]) * a_e) + np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) * a_z)
+    else:
+        rate = (np.maximum(np.abs(u[:-1, :]), np.abs(u[1:, :])) / grid.dx
+                + np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) / grid.dz)
     if cells is not None:
         rate = rate[np.asarray(cells, dtype=bool).reshape(grid.cell_shape)]
     return float(dt * np.max(rate)) if rate.size else 0.0
@@ -216,13 +244,19 @@ def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
     fx0, fz0 = fx, fz
     fx, fz = fx.copy(), fz.copy()
     cap = phi_max * (1.0 + BOUND_RTOL)
+    rad = getattr(grid, "radial", None)
     for _ in range(limiter_passes(grid)):  # a pass settles one more donor
         excess = phi - dt * flux_divergence(grid, fx, fz) - phi_max
         if not np.any(excess > cap - phi_max):
             break
-        cx, cz = dt / grid.dx, dt / grid.dz
-        inflow = (cx * (np.maximum(fx[:-1, :], 0.0) + np.maximum(-fx[1:, :], 0.0))
-                  + cz * (np.maximum(fz[:, :-1], 0.0) + np.maximum(-fz[:, 1:], 0.0)))
+        if rad is None:
+            cx, cz = dt / grid.dx, dt / grid.dz
+            inflow = (cx * (np.maximum(fx[:-1, :], 0.0) + np.maximum(-fx[1:, :], 0.0))
+                      + cz * (np.maximum(fz[:, :-1], 0.0) + np.maximum(-fz[:, 1:], 0.0)))
+        else:
+            a_w, a_e, cz = face_rates(grid, dt)
+            inflow = (a_w * np.maximum(fx[:-1, :], 0.0) + a_e * np.maximum(-fx[1:, :], 0.0)
+                      + cz * (np.maximum(fz[:, :-1], 0.0) + np.maximum(-fz[:, 1:], 0.0)))
         over = excess > cap - phi_max
         enough = over & (inflow > excess)  # else every inflow goes (r = 0)
         ratio = np.divide(excess, inflow, out=np.ones_like(excess), where=enough)
@@ -234,6 +268,10 @@ def limit_to_upper_bound(grid: Grid, phi, fx, fz, dt: float, phi_max: float):
             fx[1:-1, :] *= np.where(fx[1:-1, :] > 0.0, r[1:, :], r[:-1, :])
         fz[:, 1:-1] *= np.where(fz[:, 1:-1] > 0.0, r[:, 1:], r[:, :-1])
     ncol = grid.nx if grid.periodic_x else grid.nx + 1
+    if rad is not None:  # through the faces' areas [m^3]
+        held = dt * (grid.dz * float(np.sum(rad.faces * np.abs(fx0 - fx)))
+                     + grid.dx * float(np.sum(rad.cells * np.abs(fz0 - fz))))
+        return fx, fz, held
     held = dt * (grid.dz * float(np.sum(np.abs(fx0[:ncol] - fx[:ncol])))
                  + grid.dx * float(np.sum(np.abs(fz0 - fz))))
     return fx, fz, held
