@@ -61,14 +61,23 @@ HALF = 0.5
 
 
 def mass(grid: Grid, phi) -> float:
-    """Solid mass per unit width and per unit grain density, ``sum phi dV`` [m^2]."""
+    """Solid mass per unit width and per unit grain density, ``sum phi dV`` [m^2]; on an
+    axisymmetric grid the solid volume of the cylinder, ``sum 2 pi r_c phi dr dz`` [m^3]."""
+    if grid.axisymmetric:
+        return float(np.sum(np.reshape(phi, grid.cell_shape) * grid.cell_volumes))
     return float(np.sum(phi) * grid.cell_volume)
 
 
+def _on_faces(model, a):
+    """``a`` at the velocity unknowns times the rings' circumference (axisymmetric), else ``a``."""
+    weight = getattr(model, "unknown_weight", None)
+    return a if weight is None else weight * a
+
+
 def kinetic_energy(model, state) -> float:
-    """``1/2 sum_f rho_f u_f^2 dV`` [J m^-1] with the model's face inertia."""
+    """``1/2 sum_f rho_f u_f^2 dV`` [J m^-1; J on an axisymmetric grid] with the model's face inertia."""
     rho_f = model.inertia_density(state.phi)
-    return HALF * model.grid.cell_volume * float(rho_f @ (state.vel * state.vel))
+    return HALF * model.grid.cell_volume * float(_on_faces(model, rho_f) @ (state.vel * state.vel))
 
 
 def potential_energy(model, state) -> float:
@@ -79,7 +88,10 @@ def potential_energy(model, state) -> float:
     ``x0``; :class:`EnergyBudget` removes those jumps."""
     X, Z = model.grid.cell_coords()
     gx, gz = model.gravity
-    return -model.material.rho_s * model.grid.cell_volume * float(np.sum(state.phi * (gx * X + gz * Z)))
+    g = model.grid
+    if g.axisymmetric:  # (a radial gravity is refused: gx = 0)
+        return -model.material.rho_s * float(np.sum(g.cell_volumes * state.phi * (gx * X + gz * Z)))
+    return -model.material.rho_s * g.cell_volume * float(np.sum(state.phi * (gx * X + gz * Z)))
 
 
 def gas_energy_of(model, state) -> float:
@@ -358,7 +370,7 @@ class EnergyBudget:
         # (E_k and E_p of the record lack it); a source refills before it, which the step's
         # t^n inertia already holds (backward Euler), so only its potential energy is added back
         out_p = out_p - in_p
-        self.numerical["inertia_transport"] += (HALF * dV * float((rho_new - rho_used) @ (state.vel ** 2))
+        self.numerical["inertia_transport"] += (HALF * dV * float(_on_faces(m, rho_new - rho_used) @ (state.vel ** 2))
                                                 + out_k)
         self.numerical["gravity_transport"] += e_p - self.e_p + jump + dt * report.gravity_power + out_p
         self.dissipated_yield += dt * report.dissipation_yield
@@ -378,7 +390,7 @@ class EnergyBudget:
         self.dissipated = self.dissipated_yield + self.dissipated_dilatancy + self.dissipated_darcy
         self.rho_f = rho_new
         self.e_p = e_p
-        self.e_k = HALF * dV * float(rho_new @ (state.vel ** 2))
+        self.e_k = HALF * dV * float(_on_faces(m, rho_new) @ (state.vel ** 2))
         self.t = state.t
 
     @property

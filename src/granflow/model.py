@@ -112,6 +112,7 @@ from granflow.physics.inflow import Source, SourceSide
 from granflow.physics.coupling import GasCoupling
 from granflow.model_coefficients import ClosureCoefficients
 from granflow.model_fields import FieldMaps
+from granflow.model_geometry import GeometryWeights
 from granflow.model_gravity import GravityWeights
 from granflow.physics.material import packing
 from granflow.physics.pore_pressure import GasLaw
@@ -156,7 +157,7 @@ def _wall_friction(bcs: VelocityBCs, mu_w) -> float | None:
     return float(mu_w)
 
 
-class Model(ClosureCoefficients, GravityWeights, FieldMaps):
+class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
     """Grid + closure + gravity + wall conditions + numerical parameters; :meth:`advance`.
 
     Parameters
@@ -290,7 +291,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.ops = self._operators(grid, bcs, topography)
         self.wall_friction = _wall_friction(self.ops.bcs, wall_friction)
         self.outflow = self.ops.bcs.east is VelocityBC.OUTFLOW  # (granflow.physics.outflow)
-        self.assembler = mom.SaddleAssembler(self.ops)
+        self.assembler = mom.SaddleAssembler(self.assembly_operators())
         self.eps = float(eps)
         self.ambient = ambient if isinstance(ambient, AmbientParams) else AmbientParams(**(ambient or {}))
         self.picard = picard if isinstance(picard, PicardParams) else PicardParams(**(picard or {}))
@@ -336,6 +337,7 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         self.source = self._source(source)
         if self.solid is not None:
             self._check_topography(choice)
+        self._check_geometry(choice is LinearSolverChoice.AMG)
 
     def _operators(self, grid: Grid, bcs: VelocityBCs | None, topography: Topography | None) -> Operators:
         """The operators of the box, or of its fluid cells above ``topography``
@@ -392,12 +394,13 @@ class Model(ClosureCoefficients, GravityWeights, FieldMaps):
         reference, fastest below ~1e4 unknowns), "amg" FGMRES with the block AMG preconditioner of
         :mod:`granflow.solvers.saddle` (pays above ~2e4 unknowns), "pardiso" MKL PARDISO; "auto"
         takes PARDISO when installed, else the direct solver for the small banded systems or below
-        :data:`AUTO_AMG_UNKNOWNS`, else the AMG."""
+        :data:`AUTO_AMG_UNKNOWNS` (or with a topography or an axisymmetric grid), else the AMG."""
         if choice is LinearSolverChoice.AUTO:
             size = self.grid.n_unknowns + self.grid.n_cells
             choice = (LinearSolverChoice.PARDISO if pardiso_available()
                       else LinearSolverChoice.DIRECT if self.ambient.velocity_band and size < AUTO_BANDED_DIRECT_UNKNOWNS
-                      else LinearSolverChoice.AMG if size >= AUTO_AMG_UNKNOWNS
+                      else LinearSolverChoice.AMG if size >= AUTO_AMG_UNKNOWNS and self.solid is None
+                      and not self.grid.axisymmetric  # (the AMG takes neither)
                       else LinearSolverChoice.DIRECT)
         if choice is LinearSolverChoice.PARDISO and not pardiso_available():
             raise GranflowInputError("linear_solver 'pardiso' (numerics.linear_solver) needs the optional "

@@ -38,7 +38,7 @@ class FieldMaps:
     def strain_stencils(self) -> tuple:
         """``(|ec|, |en|)`` (:mod:`granflow.operators`): which velocity unknowns each cell's and
         node's strain rate reads (the band edge, :func:`granflow.step.band_edge`)."""
-        return abs(self.ops.ec).tocsr(), abs(self.ops.en).tocsr()
+        return sum(abs(r) for r in self.strain_rows).tocsr(), abs(self.ops.en).tocsr()
 
     @cached_property
     def base_node_rows(self) -> tuple:
@@ -59,8 +59,10 @@ class FieldMaps:
         g = self.grid
         cols, jb = np.arange(g.nx), self.base_index
         en = self.ops.en.tocsr()
-        return (self.ops.ec.tocsr()[cols * g.nz + jb], en[cols * (g.nz + 1) + jb],
-                en[(cols + 1) * (g.nz + 1) + jb])
+        cells = cols * g.nz + jb
+        ec = (self.ops.ec.tocsr()[cells] if len(self.strain_rows) == 1
+              else tuple(r.tocsr()[cells] for r in self.strain_rows))  # axisymmetric: three rows
+        return ec, en[cols * (g.nz + 1) + jb], en[(cols + 1) * (g.nz + 1) + jb]
 
     @property
     def indicator(self) -> bool:
@@ -181,7 +183,7 @@ class FieldMaps:
         :mod:`granflow.physics.momentum_transport` plus a constant ambient floor), else
         ``max(phi_f rho_s, rho_a)`` (v1, :func:`granflow.physics.momentum.face_density`)."""
         if self.advection is mom.Advection.CONSISTENT:
-            phi_f = self.ops.cell_to_face @ np.ravel(phi)
+            phi_f = self.dual_mean(phi)
             return self.material.rho_s * np.maximum(phi_f, 0.0) + self.ambient.rho_a
         return mom.face_density(self.ops, phi, self.material.rho_s, self.ambient.rho_a)
 
@@ -230,7 +232,7 @@ class FieldMaps:
         (:func:`granflow.physics.material.face_solid_fraction`), so that ``p = 0`` sits at the
         surface."""
         phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        out = self.ops.cell_to_face @ phi.ravel()
+        out = self.dual_mean(phi)
         if self.indicator and c is not None:
             c = np.asarray(c, dtype=float).reshape(phi.shape)
             out[self.grid.w_slice] = face_solid_fraction(c, phi).ravel()  # interior z-faces

@@ -32,6 +32,7 @@ from granflow.physics.material import C_ROW, material_window, packing
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.physics import wall_friction as wf
 from granflow.solvers import SaddleHints
+from granflow.step_energy import energy_terms  # noqa: F401  (stage 3, re-exported)
 
 
 class StepFailed(Exception):
@@ -230,7 +231,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
-                    band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.ops.strain_rate_on(dense),
+                    band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.strain_rate_on(dense),
                     source=source)
 
 
@@ -255,9 +256,13 @@ def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, windo
     vanish beyond it, v1's two-stage MUSCL fluxes are not cut); ``fluxes`` those of ``u_k`` if
     already known. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
     fx, fz = model.transport_fluxes(phi, u_k, dt, c, window) if fluxes is None else fluxes
-    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta,
-                                    base=None if model.solid is None else model.base_index)
-    div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
+    if model.unknown_weight is not None:  # axisymmetric: the fluxes through the rings' areas
+        A, div_dual = mt.axisymmetric_transport(model.ops, fx, fz, vel_n, window=window, theta=model.momentum_theta)
+        A, div_dual = A / model.unknown_weight, div_dual / model.unknown_weight
+    else:
+        A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta,
+                                        base=None if model.solid is None else model.base_index)
+        div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
     rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
     return rho, (A, div_dual), rhs_0 - model.material.rho_s * A
 
@@ -360,7 +365,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
     changes, rel, n_negz, krylov, converged, sweeps = 0, np.inf, 0, 0, False, 0
     rho_k, flux_div, rhs_u, share = ex.rho_n, None, ex.rhs_u, None  # share: base_nodes
-    phi_f_n = ops.cell_to_face @ state.phi.ravel() if consistent else None
+    phi_f_n = model.dual_mean(state.phi) if consistent else None
     window_n = ex.window if consistent else None
     for sweeps in range(1, model.picard.max_sweeps + 1):
         t0 = time.perf_counter()
@@ -384,14 +389,15 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         if ex.band_edge is not None:  # a stress-free band edge
             eta_c = np.where(ex.band_edge[0], 0.0, eta_c)
             eta_n = np.where(ex.band_edge[1], 0.0, eta_n)
-        mass = rho_k / dt + ex.drag
+        mass = model.on_unknowns(rho_k / dt + ex.drag)  # the rows' volume weights (model_geometry)
         a_data = model.assembler.velocity_data(mass, eta_c, eta_n, ex.region)
         act = dense & ~free
         layout = SaddleLayout(g.n_unknowns, g.n_cells, ex.keep,
                               dense if model._stable_pattern else act)
-        K = model.assembler.saddle(a_data, act, coef.C, ex.border, unknowns=layout.pressure,
+        K = model.assembler.saddle(a_data, act, model.on_cells(coef.C), ex.border, unknowns=layout.pressure,
                                    velocity=ex.region)
-        rhs = np.concatenate([layout.kept(rhs_u), -np.where(act, coef.b, 0.0)[layout.pressure]] + ex.rhs_gas)
+        rhs = np.concatenate([layout.kept(model.on_unknowns(rhs_u)),
+                              -model.on_cells(np.where(act, coef.b, 0.0))[layout.pressure]] + ex.rhs_gas)
         tim["assembly"] += time.perf_counter() - t0
         sol, its = _solve(model, K, rhs, lambda: layout.guess(u_k, np.where(act, p_k, 0.0), K.shape[0]),
                           SaddleHints(mass=mass, viscosity=hint_viscosity(model, coef.eta_c[act])), tim, sweeps)
@@ -402,7 +408,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
             p_f_new = ex.gas_sys.expand(layout.gas(sol))
         eta_last = (eta_c, eta_n)
         to_free = act & (p_new < 0.0)
-        to_act = free & (ops.div @ u_new < coef.b)
+        to_act = free & (model.divergence @ u_new < coef.b)
         if fixed_free is not None:
             to_act &= ~fixed_free
         n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
@@ -424,28 +430,6 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
                     rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
                     changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation)
-
-
-def energy_terms(model, state, dt: float, ex: Explicit, im: Implicit) -> dict:
-    """Stage 3: the step's powers [W m^-1] (:class:`granflow.model_options.StepReport`)."""
-    ops, dV = model.ops, model.grid.cell_volume
-    du = im.u - state.vel
-    # the penalty of a source sits in ex.drag (and its lambda u_in in the rhs): its work is the
-    # source's, not gravity's
-    src_power, src_drag = 0.0, 0.0
-    if ex.source is not None:
-        src_power = ex.source.power(dV, im.u)
-        src_drag = dV * float(ex.source.penalty @ (im.u * im.u))
-    if im.flux_div is not None:
-        adv_pow = mt.advection_energy_rate(model.material.rho_s, dV, im.flux_div[0], im.flux_div[1], im.u)
-    else:
-        adv_pow = dV * float((ex.rho_n * ex.adv) @ im.u)
-    return dict(dissipation_yield=ops.dissipation(im.u, *im.eta),
-                dissipation_dilatancy=-dV * float(im.p_solve @ (ops.div @ im.u)),
-                inertia_dissipation=0.5 * dV * float(ex.rho_n @ (du * du)) / dt,
-                advection_power=adv_pow,
-                gravity_power=dV * float((ex.f_g - ex.drag * im.u) @ im.u) + src_drag,
-                source_power=src_power)
 
 
 @dataclass

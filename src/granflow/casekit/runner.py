@@ -243,6 +243,7 @@ class CaseRun:
                  "overrides": " ".join(self.config.overrides), "phi_max": self.phi_max,
                  "front_threshold_m": self.threshold, "closure": self.sim.model.closure.name,
                  "rest_speed": self.rest_speed, "phi_c": self.sim.model.ambient.phi_c,
+                 "geometry": self.sim.model.grid.geometry.value,
                  **{f"{kind}_unit": unit(kind) for kind in UNIT_KINDS}}
         if self.case.units:
             attrs["units_note"] = (f"dimensionless case: lengths in {length}, times in {unit('time')}; "
@@ -254,7 +255,7 @@ class CaseRun:
         or an SI unit string, returned as is) in this case (:attr:`Case.units`)."""
         if kind not in UNIT_KINDS:
             return kind
-        return self.case.unit(kind)
+        return geometry_unit(self.case.unit(kind), self.sim.model.grid)
 
     def _si_unit(self, si: str) -> str:
         """The case's unit for the SI unit ``si`` of an output (``m s-1`` -> the speed unit)."""
@@ -434,11 +435,11 @@ class CaseRun:
                               # cells around the grains where the velocity is solved (0: everywhere)
                               "velocity_band_cells": sim.model.velocity_band or 0},
             "closure": closure.describe(),
-            "resolution": {"nx": g.nx, "nz": g.nz, "dx_m": g.dx, "dz_m": g.dz},
+            "resolution": {"nx": g.nx, "nz": g.nz, "dx_m": g.dx, "dz_m": g.dz, "geometry": g.geometry.value},
             "case_diagnostics": self.case.diagnostics(sim, cfg),
             "files": {"output": OUTPUT_FILE,
                       "checkpoint": str(checkpoint.relative_to(self.directory)) if checkpoint else None},
-            "units": case_units(self.case),
+            "units": case_units(self.case, g),
             "granflow_version": _version(), "git_revision": git_revision(),
         }
 
@@ -467,11 +468,17 @@ def energy_residual(budget) -> dict[str, Any]:
             "energy_present": present}
 
 
-def case_units(case) -> dict[str, str]:
+def geometry_unit(unit: str, grid) -> str:
+    """``unit`` of an integral over the grid: per unit width in a plane (``J m-1``), over the whole
+    cylinder on an axisymmetric grid (``J``)."""
+    return "J" if unit == "J m-1" and grid is not None and grid.axisymmetric else unit
+
+
+def case_units(case, grid=None) -> dict[str, str]:
     """The ``units`` entry of summary.json in the case's own units (H0, sqrt(H0/g) for the
-    dimensionless Lagree column)."""
+    dimensionless Lagree column; energies over the cylinder on an axisymmetric ``grid``)."""
     length, time_unit = case.unit("length"), case.unit("time")
-    speed, energy = case.unit("speed"), case.unit("energy")
+    speed, energy = case.unit("speed"), geometry_unit(case.unit("energy"), grid)
     units = dict(UNITS)
     units.update({"runout_m": length, "front_position": f"{length} (t_s in {time_unit})",
                   "final_height_at_wall": length, "t_rest": time_unit, "rest_speed": speed,

@@ -83,8 +83,8 @@ class Output:
 def grid_coords(grid: Grid, length_unit: str = "m") -> dict[str, tuple[np.ndarray, dict[str, Any]]]:
     """The ``x`` and ``z`` coordinates of the cell centres (in ``length_unit``), with their CF
     attributes, for :class:`~granflow.output.NetCDFWriter`."""
-    return {"x": (np.asarray(grid.xc), {"units": length_unit, "long_name": "x of the cell centres",
-                                        "axis": "X"}),
+    x_name = "radius r of the cell centres (axisymmetric)" if grid.axisymmetric else "x of the cell centres"
+    return {"x": (np.asarray(grid.xc), {"units": length_unit, "long_name": x_name, "axis": "X"}),
             "z": (np.asarray(grid.zc), {"units": length_unit, "long_name": "height z of the cell centres",
                                         "axis": "Z", "positive": "up",
                                         **({"standard_name": "height"} if length_unit == "m" else {})})}
@@ -100,7 +100,8 @@ def _cell_values(name: str) -> Callable[[Simulation], np.ndarray]:
         elif name == "c":
             field = st.c if st.c is not None else model.material_of(st.phi)
         elif name == "S":
-            field = model.ops.strain_rate_norm(st.vel).reshape(g.cell_shape)
+            ops = getattr(model, "axisymmetric_operators", None) or model.ops  # (|S| with the hoop strain)
+            field = ops.strain_rate_norm(st.vel).reshape(g.cell_shape)
         else:  # u, w: cell-centred means of the face values
             u, w = g.unpack_velocity(st.vel)
             field = 0.5 * (u[1:, :] + u[:-1, :]) if name == "u" else 0.5 * (w[:, 1:] + w[:, :-1])

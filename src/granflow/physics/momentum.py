@@ -295,6 +295,8 @@ class SaddleAssembler:
     Parameters
     ----------
     ops : Operators
+        Or an :class:`granflow.axisymmetric.AssemblyOperators`, whose ``cell_rows`` (several cell
+        rows, each weighted by ``eta_c``) take the place of ``ec``.
     """
 
     def __init__(self, ops: Operators) -> None:
@@ -302,7 +304,11 @@ class SaddleAssembler:
         n = g.n_unknowns
         self.ops = ops
         self.n = n
-        kc, rc, vc = product_pairs(ops.ec, n)
+        cell_rows = getattr(ops, "cell_rows", None)
+        if cell_rows is None:
+            kc, rc, vc = product_pairs(ops.ec, n)
+        else:
+            kc, rc, vc = (np.concatenate(a) for a in zip(*(product_pairs(r, n) for r in cell_rows)))
         kn, rn, vn = product_pairs(ops.en, n)
         kd = np.arange(n, dtype=np.int64) * (n + 1)
         keys = sorted_unique(np.concatenate([kc, kn, kd]))

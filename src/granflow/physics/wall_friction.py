@@ -120,6 +120,8 @@ def base_strain_rate_norm(ops, vel, rows=None) -> np.ndarray:
     ``"wall"`` base friction on a no-slip base (:func:`granflow.step.base_node_viscosity`).
     ``rows``: ``(ec, en_left, en_right)`` restricted to the base cells and their bottom-left and
     bottom-right nodes (:attr:`granflow.model.Model.base_strain_rows`, which follows a topography;
+    on an axisymmetric grid ``ec`` is the tuple of the three scaled pair rows, the hoop strain
+    included;
     the same values, ~20x fewer operations at 128^2); else the whole-grid operators on the bottom row.
     """
     vel = ops._velocity(vel)
@@ -129,6 +131,9 @@ def base_strain_rate_norm(ops, vel, rows=None) -> np.ndarray:
         sxx2 = (0.25 * (ops.ec @ vel) ** 2).reshape(nx, nz)[:, 0]
         sxz2 = (0.25 * (ops.en @ vel) ** 2).reshape(g.node_shape)[:, 0]
         left, right = sxz2[:-1], sxz2[1:]
+    elif isinstance(rows[0], tuple):  # axisymmetric: the three scaled pair rows
+        sxx2 = 0.25 * sum((r @ vel) ** 2 for r in rows[0])
+        left, right = 0.25 * (rows[1] @ vel) ** 2, 0.25 * (rows[2] @ vel) ** 2
     else:
         sxx2 = 0.25 * (rows[0] @ vel) ** 2
         left, right = 0.25 * (rows[1] @ vel) ** 2, 0.25 * (rows[2] @ vel) ** 2
