@@ -30,7 +30,7 @@ ISOTHERMAL = "isothermal"
 
 def make_grid(config: CaseConfig) -> Grid:
     g = config.grid
-    return Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz, periodic_x=g.periodic_x)
+    return Grid(nx=g.nx, nz=g.nz, Lx=g.Lx, Lz=g.Lz, periodic_x=g.periodic_x, geometry=g.geometry)
 
 
 def gas_options(config: CaseConfig) -> dict[str, Any]:
@@ -154,11 +154,38 @@ def extent_problems(config: CaseConfig, key: str, size: float, axis: str) -> lis
 
 
 def flat_base_problems(config: CaseConfig, case: str) -> list[tuple[str, str]]:
-    """A case built on the box's flat base refuses a ``[topography]``."""
+    """A case built on the box's flat base, in a plane, refuses a ``[topography]`` and an
+    axisymmetric grid."""
+    out = []
     if config.topography.x:
-        return [("topography.x", f"{case} has the box's flat base; a base profile needs the "
-                                 "column_collapse case (remove [topography])")]
-    return []
+        out.append(("topography.x", f"{case} has the box's flat base; a base profile needs the "
+                                    "column_collapse case (remove [topography])"))
+    if config.grid.geometry != "plane":
+        out.append(("grid.geometry", f'{case} is plane; "{config.grid.geometry}" needs the column_collapse case'))
+    return out
+
+
+AXISYMMETRIC_LIMITS = (
+    ("gas.law", lambda c: c.gas.law != "none", 'the pore gas is not available yet (gas.law = "none": dry)'),
+    ("topography.x", lambda c: bool(c.topography.x), "a base profile is not available (remove [topography])"),
+    ("inflow.side", lambda c: c.inflow.side != "none", 'an inflow source is not available (inflow.side = "none")'),
+    ("walls.east", lambda c: c.walls.east == "outflow", "an outflow wall is not available"),
+    ("walls.bottom", lambda c: c.walls.bottom == "coulomb", 'a Coulomb base is not available ("no_slip" or "free_slip")'),
+    ("walls.west", lambda c: c.walls.west != "free_slip", 'the west side is the axis: it must be "free_slip"'),
+    ("gravity.slope_deg", lambda c: c.gravity.slope_deg != 0.0, "gravity must be vertical (slope_deg = 0)"),
+    ("numerics.surface", lambda c: c.numerics.surface != "indicator", 'needs the "indicator" surface'),
+    ("numerics.advection", lambda c: c.numerics.advection != "consistent", 'needs the "consistent" advection'),
+    ("numerics.linear_solver", lambda c: c.numerics.linear_solver == "amg", 'the "amg" solver is not available'),
+)
+"""What an axisymmetric grid does not support yet: (key, test of the config, why)."""
+
+
+def axisymmetric_problems(config: CaseConfig) -> list[tuple[str, str]]:
+    """The keys of a case file that an axisymmetric grid refuses (:data:`AXISYMMETRIC_LIMITS`;
+    the Model refuses the same, :mod:`granflow.model_geometry`)."""
+    if config.grid.geometry != "axisymmetric":
+        return []
+    return [(key, f'grid.geometry = "axisymmetric": {why}') for key, bad, why in AXISYMMETRIC_LIMITS if bad(config)]
 
 
 def column_on_base(grid: Grid, x0: float, x1: float, height: float, base: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ import numpy as np
 from pydantic import Field
 
 from granflow.casekit.common import (
+    axisymmetric_problems,
     column_on_base,
     extent_problems,
     gas_problems,
@@ -94,7 +95,7 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
                                        "set periodic_x = false"))
     if s.b0 > 0 and config.gas.law == "none":
         out.append(("setup.b0", 'an initial pore pressure needs gas.law = "linear" or "nonlinear"'))
-    return out + topography_problems(config)
+    return out + topography_problems(config) + axisymmetric_problems(config)
 
 
 def topography_problems(config: CaseConfig) -> list[tuple[str, str]]:

@@ -39,9 +39,10 @@ from pydantic import (
     model_validator,
 )
 
+from granflow.config.sections import InflowSection, Section, TopographySection
 from granflow.config.tomlfile import KEY_SEP, dumps_toml  # noqa: F401  (KEY_SEP: re-exported)
 from granflow.gas import GasCompressibility, GasLaw
-from granflow.grid import MIN_CELLS
+from granflow.grid import MIN_CELLS, Geometry
 from granflow.materials import Material
 from granflow.model_options import DEFAULT_ISOCHORIC_INTERFACE
 from granflow.model import (
@@ -134,17 +135,11 @@ PhiSchemeName = Literal[enum_values(PhiScheme)]  # type: ignore[valid-type]
 SurfaceName = Literal[enum_values(Surface)]  # type: ignore[valid-type]
 BaseFrictionName = Literal[enum_values(BaseFriction)]  # type: ignore[valid-type]
 LinearSolverName = Literal[enum_values(LinearSolverChoice)]  # type: ignore[valid-type]
+GeometryName = Literal[enum_values(Geometry)]  # type: ignore[valid-type]
 DEFAULT_LINEAR_SOLVER = LinearSolverChoice.AUTO.value
 """The case files' linear solver: ``"auto"`` (the fastest exact or iterative solver for the size).
 :class:`granflow.model.Model` keeps ``"direct"`` (SciPy's LU, the reference) as its own default for
 library use and tests; a case always passes its ``numerics.linear_solver``."""
-
-
-class Section(BaseModel):
-    """Base of every section: frozen, unknown keys forbidden, no type coercion, finite numbers."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", strict=True, allow_inf_nan=False,
-                              validate_default=True)
 
 
 class CaseSection(Section):
@@ -194,9 +189,15 @@ class GridSection(Section):
     Lz: float = Field(0.15, gt=0, description="box height [m]")
     periodic_x: bool = Field(False, description="periodic in x (an infinite layer; the west and east "
                              "walls are then ignored) [-]")
+    geometry: GeometryName = Field("plane", description='"plane" (a vertical plane, per unit width) or '
+                                   '"axisymmetric" (x is the radius r, the west side the axis: a '
+                                   'cylindrical column; integrals over the whole cylinder; column_collapse, '
+                                   'dry) [-]')
 
     @model_validator(mode="after")
     def _size(self) -> GridSection:
+        if self.geometry == "axisymmetric" and self.periodic_x:
+            raise ValueError('grid.geometry = "axisymmetric" cannot be periodic in r: set grid.periodic_x = false')
         if self.nx * self.nz > MAX_CELLS:
             raise ValueError(f"nx * nz = {self.nx * self.nz} cells exceeds the limit of {MAX_CELLS} "
                              "(granflow.config.MAX_CELLS); check nx and nz")
@@ -316,42 +317,6 @@ class NumericsSection(Section):
     ambient: AmbientSection = Field(default_factory=AmbientSection, description="light ambient [-]")
 
 
-class InflowSection(Section):
-    """``[inflow]``: a supply of grains through part of the west wall or of the base
-    (:mod:`granflow.physics.inflow`); off unless ``side`` is set."""
-
-    side: Literal["none", "west", "bottom"] = Field(
-        "none", description='where the grains enter: "none" (no source), "west" (the west wall, over '
-        'lower <= z <= upper) or "bottom" (the base, over lower <= x <= upper) [-]')
-    lower: float = Field(0.0, ge=0, description="start of the source's span along its side [m]")
-    upper: float | None = Field(None, gt=0, description="end of the source's span along its side (needed "
-                                "with a source) [m]")
-    phi: float | None = Field(None, gt=0, description="solid fraction of the incoming grains, at most "
-                              "material.phi_max (default: material.phi_max) [-]")
-    speed: float | None = Field(None, gt=0, description="velocity of the incoming grains into the box "
-                                "(needed with a source) [m s^-1]")
-    start: float = Field(0.0, ge=0, description="the source is on from this time [s]")
-    stop: float | None = Field(None, gt=0, description="... until this time (default: the whole run) [s]")
-
-    @model_validator(mode="after")
-    def _complete(self) -> InflowSection:
-        if self.side == "none":
-            given = sorted(k for k in self.model_fields_set  # (an effective file repeats the defaults)
-                           if k != "side" and getattr(self, k) != type(self).model_fields[k].default)
-            if given:
-                raise ValueError(f"inflow.{given[0]} is set but inflow.side is \"none\" (no source): set "
-                                 f"inflow.side (\"west\" or \"bottom\") or remove {', '.join('inflow.' + k for k in given)}")
-            return self
-        for key in ("upper", "speed"):
-            if getattr(self, key) is None:
-                raise ValueError(f'inflow.side = "{self.side}" needs inflow.{key}')
-        if not self.lower < self.upper:
-            raise ValueError(f"inflow.lower = {self.lower:g} must be below inflow.upper = {self.upper:g}")
-        if self.stop is not None and not self.start < self.stop:
-            raise ValueError(f"inflow.start = {self.start:g} must be before inflow.stop = {self.stop:g}")
-        return self
-
-
 class GasSection(Section):
     """``[gas]``: the pore-gas model; anything but ``law = "none"`` needs a Model with gas support."""
 
@@ -388,30 +353,6 @@ class OutputSection(Section):
                                 "when not on a terminal [s]")
     figures: bool = Field(True, description="write snapshot and front-position figures (PNG) at the "
                           "end of the run [-]")
-
-
-class TopographySection(Section):
-    """``[topography]``: a base profile z_b(x) through the points (x, z), linear between them and
-    level beyond; the cells below it are solid (granflow.topography). Empty: the flat base."""
-
-    x: list[float] = Field(default_factory=list, description="abscissae of the profile's points, "
-                           "strictly increasing [m]")
-    z: list[float] = Field(default_factory=list, description="base height at each x [m]")
-    file: str | None = Field(None, description="CSV file of two columns x, z [m] (a header line is "
-                             "allowed), relative to the case file; read when the file is loaded, the "
-                             "effective configuration then lists the points [-]")
-
-    @model_validator(mode="after")
-    def _points(self) -> TopographySection:
-        if self.file is not None and (self.x or self.z):
-            raise ValueError("give the profile either as topography.x and topography.z or as "
-                             "topography.file, not both")
-        if len(self.x) != len(self.z):
-            raise ValueError(f"topography.x and topography.z must have the same length "
-                             f"(got {len(self.x)} and {len(self.z)})")
-        if any(b <= a for a, b in zip(self.x, self.x[1:])):
-            raise ValueError(f"topography.x must be strictly increasing (got {self.x})")
-        return self
 
 
 class EmptySetup(Section):
