@@ -16,7 +16,8 @@ radius r) every control volume is a ring of circumference ``2 pi r``:
   the volume-weighted mean ``(r_L phi_L + r_R phi_R)/(2 r_f)`` (:meth:`dual_mean`), which makes
   its mass follow the momentum transport's dual fluxes exactly
   (:func:`granflow.physics.momentum_transport.axisymmetric_transport`);
-* every integral of the budget (mass, energies, powers) is over the full cylinder [kg, J, W].
+* every integral of the budget (mass, energies, powers) is over the full cylinder [kg, J, W];
+* the gas rows are weighted the same way by :class:`granflow.physics.coupling.GasCoupling`.
 
 What an axisymmetric model does not support yet is refused by name (:meth:`_check_geometry`).
 """
@@ -108,7 +109,6 @@ class GeometryWeights:
                        (self.advection.value != "consistent",
                         f"advection = {self.advection.value!r} (needs 'consistent')"),
                        (amg, "linear_solver = 'amg' (use 'direct' or 'pardiso')"),
-                       (self.gas_coupling is not None, "a gas (pore pressure; dry only so far)"),
                        (self.source is not None, "an inflow source"),
                        (self.solid is not None, "a topography"),
                        (self.outflow, "an outflow wall"),

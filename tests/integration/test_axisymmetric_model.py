@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg  # noqa: F401  (sp.linalg)
 import xarray as xr
 
 from granflow import diagnostics as dg
@@ -21,7 +22,9 @@ from granflow.grid import Grid
 from granflow.materials import Material
 from granflow.model import Model, StepStatus
 from granflow.physics.momentum import SaddleAssembler
+from granflow.physics.coupling import GasCoupling
 from granflow.rheology.base import make_closure
+from granflow.topography import Topography
 
 from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_axisymmetric.toml"
@@ -131,8 +134,8 @@ def test_the_rings_converge_as_one_over_r_with_the_three_dimensional_deviator():
 
 def test_what_is_not_supported_yet_is_refused_by_name():
     g = Grid(nx=8, nz=6, Lx=0.2, Lz=0.1, geometry="axisymmetric")
-    with pytest.raises(GranflowInputError, match="axisymmetric grid does not support a gas"):
-        Model(g, closure(), gas="linear")
+    with pytest.raises(GranflowInputError, match="axisymmetric grid does not support a topography"):
+        Model(g, closure(), topography=Topography([0.0, 0.2], [0.02, 0.0]))
     with pytest.raises(GranflowInputError, match="amg"):
         Model(g, closure(), linear_solver="amg")
     with pytest.raises(GranflowInputError, match="radial component"):
@@ -142,8 +145,10 @@ def test_what_is_not_supported_yet_is_refused_by_name():
 
 
 def test_case_file_option_checked_by_key(tmp_path):
-    with pytest.raises(GranflowInputError, match=r"gas\.law.*axisymmetric"):
-        load_case(EXAMPLE, overrides=['gas.law="linear"'])
+    with pytest.raises(GranflowInputError, match=r"setup\.preparation.*axisymmetric"):
+        load_case(EXAMPLE, overrides=['gas.law="linear"', 'setup.preparation="injection"'])
+    with pytest.raises(GranflowInputError, match=r"inflow\.side.*axisymmetric"):
+        load_case(EXAMPLE, overrides=['inflow.side="bottom"', "inflow.upper=0.05", "inflow.speed=0.1"])
     with pytest.raises(GranflowInputError, match=r"walls\.west.*axis"):
         load_case(EXAMPLE, overrides=['walls.west="no_slip"'])
     static = tmp_path / "static.toml"
@@ -185,3 +190,48 @@ def test_restart_on_an_axisymmetric_grid_is_bit_identical(tmp_path, capsys):
         assert np.array_equal(x["phi"].values[-1], y["phi"].values[-1])
         assert np.array_equal(x["u"].values[-1], y["u"].values[-1])
     capsys.readouterr()
+
+
+def test_steady_injected_bed_is_the_darcy_profile_in_both_geometries():
+    """A rigid uniform bed with gas injected through the whole base at U and an open top: the
+    steady p_f = U (H - z)/kappa (module docstring of granflow.physics.pore_pressure) whatever the
+    geometry. On the rings every gas row carries 2 pi r_c and every face 2 pi r_f, so a weight
+    missing from the injection, the capacity, the top face or the diffusion would bend the profile
+    by a factor r between columns."""
+    mat = Material(d=70e-6, rho_s=2500.0, phi_max=PHI_MAX)
+    U, phi0, H = 2e-3, 0.58, 0.1
+    kappa = float(mat.permeability(phi0))
+    for geometry in ("plane", "axisymmetric"):
+        g = Grid(nx=5, nz=20, Lx=0.05, Lz=H, geometry=geometry)
+        model = Model(g, closure())
+        gas = GasCoupling(g, model.ops, mat, "linear", open_top=True, injection=U)
+        phi = np.full(g.n_cells, phi0)
+        sys_ = gas.prepare(phi, np.zeros(g.n_cells), np.zeros(g.n_unknowns), 1e12, np.ones(g.n_cells, dtype=bool))
+        p = sp.linalg.spsolve(sys_.matrix.tocsc(), sys_.rhs).reshape(g.cell_shape)
+        _, Z = g.cell_coords()
+        assert np.allclose(p, U * (H - Z) / kappa, rtol=1e-6), geometry
+
+
+def test_fluidised_collapse_closes_the_gas_energy_identity():
+    """A fluidised cylinder (b0 = 0.8, open top, gas injected at 0.1 U_mf): mass to round-off, the
+    gas energy identity of granflow.physics.coupling closes to round-off (the gas rows, the Darcy
+    dissipation, the injection and the open top all over the rings), the pressure work of the
+    momentum rows equals the gas side's, and the whole budget's error is the sum of its terms."""
+    g = Grid(nx=24, nz=10, Lx=0.3, Lz=0.125, geometry="axisymmetric")
+    mat = Material(d=70e-6, rho_s=2500.0, phi_max=PHI_MAX)
+    model = Model(g, make_closure("drucker_prager", mat, delta_deg=26.74), gas="linear", open_top=True, U_inj=5e-4)
+    X, Z = g.cell_coords()
+    phi0 = 0.58 * ((X < 0.1) & (Z < 0.1))
+    st = model.initial_state(phi0, p_f=0.8 * model.lithostatic_pressure(phi0))
+    budget = dg.EnergyBudget.start(model, st)
+    for _ in range(200):
+        rep = model.advance(st, 5e-4)
+        assert rep.status is not StepStatus.FAILED, rep.message
+        budget.record(rep, st)
+    gas_terms = sum(budget.numerical[k] for k in ("gas_backward_euler", "gas_ambient", "gas_transport", "gas_diffusion"))
+    scale = budget.released + budget.injected
+    assert dg.mass(g, st.phi) == pytest.approx(dg.mass(g, phi0), rel=1e-13)
+    assert budget.injected > 0 and budget.released_gas > 0
+    assert budget.residual_gas == pytest.approx(gas_terms, abs=1e-10 * scale)
+    assert abs(budget.numerical["pressure_work_mismatch"]) < 1e-10 * scale
+    assert budget.residual == pytest.approx(sum(budget.numerical.values()), abs=1e-10 * scale)

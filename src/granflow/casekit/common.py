@@ -166,7 +166,6 @@ def flat_base_problems(config: CaseConfig, case: str) -> list[tuple[str, str]]:
 
 
 AXISYMMETRIC_LIMITS = (
-    ("gas.law", lambda c: c.gas.law != "none", 'the pore gas is not available yet (gas.law = "none": dry)'),
     ("topography.x", lambda c: bool(c.topography.x), "a base profile is not available (remove [topography])"),
     ("inflow.side", lambda c: c.inflow.side != "none", 'an inflow source is not available (inflow.side = "none")'),
     ("walls.east", lambda c: c.walls.east == "outflow", "an outflow wall is not available"),

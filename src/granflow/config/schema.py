@@ -191,8 +191,8 @@ class GridSection(Section):
                              "walls are then ignored) [-]")
     geometry: GeometryName = Field("plane", description='"plane" (a vertical plane, per unit width) or '
                                    '"axisymmetric" (x is the radius r, the west side the axis: a '
-                                   'cylindrical column; integrals over the whole cylinder; column_collapse, '
-                                   'dry) [-]')
+                                   'cylindrical column; integrals over the whole cylinder; column_collapse) '
+                                   '[-]')
 
     @model_validator(mode="after")
     def _size(self) -> GridSection:

@@ -187,6 +187,23 @@ class GasCoupling:
         self.polytropic = polytropic_index(self.gas, compressibility)
         """Polytropic index n of the gas [-] (1 isothermal)."""
         self.compressibility = GasCompressibility(compressibility)
+        self.div, self.cell_weight, self.face_weight = ops.div, None, None
+        if grid.axisymmetric:  # every gas row times its ring's 2 pi r_c (module docstring)
+            from granflow.axisymmetric import AxisymmetricOperators
+
+            self.div = AxisymmetricOperators.build(grid, ops.bcs).div
+            self.cell_weight = np.repeat(grid.radial.cells[:, 0], grid.nz)
+            self.face_weight = grid.unknown_metric
+
+    def _faces(self, face_factor):
+        """The face mobilities' multiplier: the indicator's ``face_factor`` times the faces'
+        ``2 pi r`` on an axisymmetric grid (None: neither)."""
+        if self.face_weight is None:
+            return face_factor
+        return self.face_weight if face_factor is None else self.face_weight * np.asarray(face_factor, dtype=float)
+
+    def _on_cells(self, a):
+        return a if self.cell_weight is None else self.cell_weight * a
 
     def prepare(self, phi, p_f, vel, dt: float, wet, face_factor=None) -> GasSystem:
         """Gas rows of the step from ``t^n`` fields (``phi``, ``p_f`` [Pa], ``vel``) and ``wet``
@@ -205,17 +222,19 @@ class GasCoupling:
         phi_star = (np.clip(advect(g, phi_old.reshape(g.cell_shape), vel, dt).phi.ravel(), 0.0, mat.phi_max)
                     if moving else np.clip(phi_old, 0.0, mat.phi_max))
         block = gas_operator(g, ops, phi_star, dt, mat, gas=self.gas, p_f=q, dirichlet=~wet,
-                             open_top=self.open_top, injection=self.injection, face_factor=face_factor,
+                             open_top=self.open_top, injection=self.injection,
+                             face_factor=self._faces(face_factor), cell_weight=self.cell_weight,
                              compressibility=self.compressibility)
-        T = (transport_divergence(g, ops, np.clip(phi_old, 0.0, mat.phi_max), q, vel) if moving
+        T = (transport_divergence(g, ops, np.clip(phi_old, 0.0, mat.phi_max), q, vel, self.div) if moving
              else np.zeros(g.n_cells))
         rhs = explicit_rhs(g, np.clip(phi_old, 0.0, mat.phi_max), q, dt, transport=T, dirichlet=~wet,
                            polytropic=self.polytropic)
         idx = np.flatnonzero(wet)
         M = block.matrix.tocsr()[idx][:, idx].tocsr()
+        source = block.rhs if self.cell_weight is None else block.rhs / self.cell_weight
         return GasSystem(wet=wet, phi_star=phi_star, phi_old=phi_old, p_f_old=q, transport=T,
-                         source=block.rhs, matrix=M, rhs=(rhs + block.rhs)[idx], dt=float(dt),
-                         face_factor=None if face_factor is None else np.asarray(face_factor, dtype=float))
+                         source=source, matrix=M, rhs=(self._on_cells(rhs) + block.rhs)[idx], dt=float(dt),
+                         face_factor=self._faces(None if face_factor is None else np.asarray(face_factor, dtype=float)))
 
     def powers(self, system: GasSystem, p_f, vel, phi_new) -> GasPowers:
         """Energy terms of the step (module docstring) for the solution ``p_f`` (n_cells,) [Pa],
@@ -227,24 +246,27 @@ class GasCoupling:
         q = system.p_f_old
         phi_s, phi_o, phi_n = system.phi_star, system.phi_old, np.asarray(phi_new, dtype=float).ravel()
         e_p, e_q, de_p = log_energy_density(p, pa), log_energy_density(q, pa), log_energy_slope(p, pa)
-        div_u = ops.div @ vel
+        div_u = self.div @ vel
         darcy = darcy_dissipation(g, ops, phi_s, p, mat, open_top=self.open_top,
-                                  weighted=self.gas is GasLaw.LINEAR, face_factor=system.face_factor)
+                                  weighted=self.gas is GasLaw.LINEAR, face_factor=system.face_factor,
+                                  cell_weight=self.cell_weight)
         pw = p[wet]
         n = self.polytropic  # the storage terms carry 1/n (1.0 isothermal: unchanged values)
-        cap = (1.0 - phi_s[wet]) / (n * dt)
+        cap = self._on_cells((1.0 - phi_s) / (n * dt))[wet]
         Lp = system.matrix @ pw - cap * pw
         bregman = e_q - e_p - de_p * (q - p)
-        transport = -float(np.sum(((phi_n - phi_s) * e_p + (phi_s - phi_o) * (e_q - q * de_p))[wet]) / (n * dt)
-                      + np.sum((de_p * system.transport)[wet]) / n
-                      + np.sum(((pa * de_p - p) * div_u)[wet]))
+        w = self._on_cells  # axisymmetric: each cell's term over its ring
+        transport = -float(np.sum(w((phi_n - phi_s) * e_p + (phi_s - phi_o) * (e_q - q * de_p))[wet]) / (n * dt)
+                      + np.sum(w(de_p * system.transport)[wet]) / n
+                      + np.sum(w((pa * de_p - p) * div_u)[wet]))
+        grad_p = ops.grad @ p
         return GasPowers(
             darcy=darcy,
-            work=dV * float(p @ div_u),
-            work_momentum=-dV * float(vel @ (ops.grad @ p)),
-            injection=dV * float(np.sum((de_p * system.source)[wet])),
-            backward_euler=-dV * float(np.sum(((1.0 - phi_s) * bregman)[wet])) / (n * dt),
-            ambient=-dV * float(np.sum(((1.0 - np.clip(phi_o, 0.0, mat.phi_max)) * e_q)[~wet])) / (n * dt),
+            work=dV * float(w(p) @ div_u),
+            work_momentum=-dV * float(vel @ (grad_p if self.face_weight is None else self.face_weight * grad_p)),
+            injection=dV * float(np.sum(w(de_p * system.source)[wet])),
+            backward_euler=-dV * float(np.sum(w((1.0 - phi_s) * bregman)[wet])) / (n * dt),
+            ambient=-dV * float(np.sum(w((1.0 - np.clip(phi_o, 0.0, mat.phi_max)) * e_q)[~wet])) / (n * dt),
             transport=dV * transport,
             diffusion=darcy - dV * float(de_p[wet] @ Lp),
         )

@@ -241,7 +241,7 @@ def _diffusion_pattern(ops: Operators) -> _DiffusionPattern:
 
 def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material, *,
                  gas: GasLaw | str = GasLaw.LINEAR, p_f=None, dirichlet=None,
-                 open_top: bool = False, injection=0.0, face_factor=None,
+                 open_top: bool = False, injection=0.0, face_factor=None, cell_weight=None,
                  compressibility: GasCompressibility | str = GasCompressibility.ISOTHERMAL) -> GasBlock:
     """Matrix and boundary right-hand side of the implicit p_f equation (paper eq. syst2b).
 
@@ -272,6 +272,10 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
     compressibility : GasCompressibility or str
         ``"isothermal"`` (default, n = 1) or ``"adiabatic"`` (n = 1.4, LINEAR only): the capacity
         is ``(1 - phi)/(n dt)`` (module docstring).
+    cell_weight : array_like (n_cells,), optional
+        Multiplier of every cell's own terms (capacity, open-top face, injection): the rings'
+        circumferences ``2 pi r_c`` of an axisymmetric grid, whose face weights ``2 pi r_f``
+        come in ``face_factor`` (:class:`granflow.physics.coupling.GasCoupling`).
 
     Returns
     -------
@@ -286,14 +290,7 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
     phi = _phi(grid, phi)
     mask = _mask(grid, dirichlet)
     u_inj = _injection(grid, injection)
-    if gas is GasLaw.NONLINEAR:
-        if p_f is None:
-            raise GranflowInputError("gas='nonlinear' needs p_f (the lagged p_f^n)")
-        p_old = _p_f(grid, p_f, material, absolute=True)
-        gauge_faces = ops.cell_to_face @ p_old
-        gauge_base = p_old[_bottom_cells(grid, ops)]
-    else:
-        gauge_faces, gauge_base = 0.0, 0.0
+    gauge_faces, gauge_base = _gauges(grid, ops, gas, p_f, material)
     if math.isinf(dt) and not (open_top or mask.any()):
         raise GranflowInputError("dt = inf (steady state) needs dirichlet cells or open_top")
 
@@ -303,13 +300,15 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
     K_f = kappa_f * (material.p_atm + gauge_faces)
     pat = _diffusion_pattern(ops)
     data = pat.P @ K_f
-    data[pat.diag] += (1.0 - phi) / (n_poly * dt)  # capacity
+    weight = 1.0 if cell_weight is None else np.asarray(cell_weight, dtype=float)
+    data[pat.diag] += weight * (1.0 - phi) / (n_poly * dt)  # capacity
     if open_top:
         top = np.zeros(grid.n_cells)
         top[_top_cells(grid)] = GHOST_FACE_FACTOR * material.p_atm * kappa_top / grid.dz**2
-        data[pat.diag] += top
+        data[pat.diag] += weight * top
     rhs = np.zeros(grid.n_cells)
     rhs[_bottom_cells(grid, ops)] = (material.p_atm + gauge_base) * u_inj / grid.dz
+    rhs = weight * rhs
     if mask.any():
         keep = (~mask).astype(float)
         scale = float(data[pat.diag][~mask].mean()) if (~mask).any() else 1.0
@@ -317,6 +316,17 @@ def gas_operator(grid: Grid, ops: Operators | None, phi, dt, material: Material,
         data[pat.diag] += mask * scale
         rhs[mask] = 0.0
     return GasBlock(pat.matrix(data), rhs)
+
+
+def _gauges(grid: Grid, ops: Operators, gas: GasLaw, p_f, material: Material):
+    """``(p_f^n at the faces, p_f^n of the base cells)`` of the NONLINEAR law's lagged coefficient
+    and injected mass flux (0, 0 for LINEAR)."""
+    if gas is not GasLaw.NONLINEAR:
+        return 0.0, 0.0
+    if p_f is None:
+        raise GranflowInputError("gas='nonlinear' needs p_f (the lagged p_f^n)")
+    p_old = _p_f(grid, p_f, material, absolute=True)
+    return ops.cell_to_face @ p_old, p_old[_bottom_cells(grid, ops)]
 
 
 def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=None,
@@ -338,11 +348,12 @@ def explicit_rhs(grid: Grid, phi_old, p_f_old, dt, *, transport=None, dirichlet=
     return rhs
 
 
-def transport_divergence(grid: Grid, ops: Operators, phi, p_f, vel) -> np.ndarray:
+def transport_divergence(grid: Grid, ops: Operators, phi, p_f, vel, div=None) -> np.ndarray:
     """``div((1 - phi) p_f u)`` at cells [Pa s^-1], first-order upwind, zero flux through walls
     (periodic in x: the x-face 0 takes its upwind value from cell nx - 1 or 0).
 
-    ``phi`` [-], ``p_f`` [Pa]: cell fields at ``t^n``; ``vel``: velocity unknowns at ``t^n`` [m s^-1].
+    ``phi`` [-], ``p_f`` [Pa]: cell fields at ``t^n``; ``vel``: velocity unknowns at ``t^n`` [m s^-1];
+    ``div`` the divergence to take (default ``ops.div``; an axisymmetric grid's, with r).
     """
     q = ((1.0 - _phi(grid, phi)) * _cell_field(grid, "p_f", p_f)).reshape(grid.cell_shape)
     u, w = grid.unpack_velocity(vel)
@@ -350,7 +361,7 @@ def transport_divergence(grid: Grid, ops: Operators, phi, p_f, vel) -> np.ndarra
     q_west, q_east = (np.roll(q, 1, axis=0), q) if grid.periodic_x else (q[:-1, :], q[1:, :])
     flux_x = ui * np.where(ui > 0.0, q_west, q_east)
     flux_z = wi * np.where(wi > 0.0, q[:, :-1], q[:, 1:])
-    return ops.div @ np.concatenate([flux_x.ravel(), flux_z.ravel()])
+    return (ops.div if div is None else div) @ np.concatenate([flux_x.ravel(), flux_z.ravel()])
 
 
 def coupling_block(ops: Operators, material: Material, dirichlet=None) -> sp.csr_matrix:
@@ -438,11 +449,14 @@ def gas_energy(grid: Grid, phi, p_f, material: Material,
         e = (pa + p) * np.log1p(p / pa) - p
     else:
         e = p**2 / (2.0 * pa)
+    if getattr(grid, "axisymmetric", False):  # over the rings [J]
+        return float(np.sum((1.0 - phi) * e * grid.cell_volumes.ravel()) / polytropic)
     return float(np.sum((1.0 - phi) * e) * grid.cell_volume / polytropic)
 
 
 def darcy_dissipation(grid: Grid, ops: Operators, phi, p_f, material: Material, *,
-                      open_top: bool = False, weighted: bool = False, face_factor=None) -> float:
+                      open_top: bool = False, weighted: bool = False, face_factor=None,
+                      cell_weight=None) -> float:
     """``D = sum_faces w_f kappa_f |grad p_f|^2 dV`` [W m^-1] (paper eq. energieA_air, NUMERICS §9).
 
     Interior faces count with ``dV``; with ``open_top`` each top wall face adds
@@ -450,7 +464,8 @@ def darcy_dissipation(grid: Grid, ops: Operators, phi, p_f, material: Material, 
     which makes ``D`` the exact discrete partner of :func:`gas_operator`. ``p_f`` must already be 0
     in Dirichlet cells. ``weighted=False``: ``w_f = 1`` (paper's D); ``weighted=True``:
     ``w_f = p_atm/(p_atm + p_f,face)`` (partner of the LOG energy for the LINEAR law).
-    ``face_factor``: the multiplier of the face mobilities given to :func:`gas_operator`.
+    ``face_factor``, ``cell_weight``: the multipliers of the face mobilities and of the cells'
+    own terms given to :func:`gas_operator`.
     """
     ops = _checked(grid, ops, material)
     p = _p_f(grid, p_f, material, absolute=weighted)
@@ -462,5 +477,6 @@ def darcy_dissipation(grid: Grid, ops: Operators, phi, p_f, material: Material, 
     total = np.sum(w_f * kappa_f * grad**2) * grid.cell_volume
     if open_top:
         g_top = GHOST_FACE_FACTOR * p[_top_cells(grid)] / grid.dz   # w_f = 1: p_f = 0 on the face
-        total += np.sum(kappa_top * g_top**2) * grid.cell_volume / GHOST_FACE_FACTOR
+        w_top = 1.0 if cell_weight is None else np.asarray(cell_weight, dtype=float)[_top_cells(grid)]
+        total += np.sum(w_top * kappa_top * g_top**2) * grid.cell_volume / GHOST_FACE_FACTOR
     return float(total)

@@ -283,8 +283,8 @@ def advect(grid: Grid, phi, vel, dt: float, phi_max: float | None = None,
     MUSCL the compiled kernel (:mod:`granflow.physics.transport_kernel`) when Numba is installed,
     else the NumPy reference :func:`advect_numpy` (same arguments and result, equal to
     round-off); the sharp scheme (:class:`PhiScheme`) runs in NumPy."""
-    if scheme is not PhiScheme.MUSCL or not kernel_available():
-        return advect_numpy(grid, phi, vel, dt, phi_max, scheme)
+    if scheme is not PhiScheme.MUSCL or not kernel_available() or getattr(grid, "radial", None) is not None:
+        return advect_numpy(grid, phi, vel, dt, phi_max, scheme)  # (the kernel is plane)
     u, w = face_velocities(grid, vel)
     out, fx, fz, held = advect_compiled(phi, u, w, dt, grid.dx, grid.dz, phi_max,
                                         (phi_max or 0.0) * (1.0 + BOUND_RTOL), grid.periodic_x,
@@ -343,7 +343,7 @@ def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None,
         fluxes = muscl_fluxes
     fx0, fz0 = fluxes(grid, phi, u, w)
     if sharp:
-        fx0, fz0 = limit_to_lower_bound(phi, fx0, fz0, dt, grid.dx, grid.dz, grid.periodic_x)
+        fx0, fz0 = limit_to_lower_bound(phi, fx0, fz0, dt, grid.dx, grid.dz, grid.periodic_x, grid.radial)
     held = 0.0
     if phi_max is not None:
         fx0, fz0, h0 = limit_to_upper_bound(grid, phi, fx0, fz0, dt, phi_max)
@@ -351,7 +351,7 @@ def advect_numpy(grid: Grid, phi, vel, dt: float, phi_max: float | None = None,
     phi1 = phi - dt * flux_divergence(grid, fx0, fz0)
     fx1, fz1 = fluxes(grid, phi1, u, w)
     if sharp:
-        fx1, fz1 = limit_to_lower_bound(phi1, fx1, fz1, dt, grid.dx, grid.dz, grid.periodic_x)
+        fx1, fz1 = limit_to_lower_bound(phi1, fx1, fz1, dt, grid.dx, grid.dz, grid.periodic_x, grid.radial)
     if phi_max is not None:
         fx1, fz1, h1 = limit_to_upper_bound(grid, phi1, fx1, fz1, dt, phi_max)
         held += HALF * h1
