@@ -18,7 +18,7 @@ from granflow.closure_figures import (  # noqa: F401  (re-exported)
 )
 from granflow.figure_layout import pyplot as _pyplot
 from granflow.figure_layout import save_figure
-from granflow.terrain_figure import draw_terrain, solid_mask
+from granflow.terrain_figure import draw_terrain, solid_mask, x_name
 
 LINE_FIGURE_IN = (7.0, 4.0)
 """Size [in] of the figures of time series (``front.png``, ``probes.png``)."""
@@ -173,7 +173,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
         draw_front(ax, ds, i)
         ax.set_aspect("equal" if equal_aspect(ds) else "auto")
         ax.set_title(f"phi, t = {float(snap['time']):.3g} {tu}", fontsize="small")
-        ax.set_xlabel(f"x [{lu}]")
+        ax.set_xlabel(f"{x_name(ds)} [{lu}]")
         ax.set_ylabel(f"z [{lu}]")
         fig.colorbar(m, ax=ax, shrink=0.8)
         if has_pf:
@@ -182,7 +182,7 @@ def run_figures(nc_path: str | Path, outdir: str | Path) -> list[Path]:
             draw_terrain(ax, ds)
             ax.set_aspect("equal" if equal_aspect(ds) else "auto")
             ax.set_title(f"p_f [{units_of(ds, 'p_f', 'Pa')}], t = {float(snap['time']):.3g} {tu}", fontsize="small")
-            ax.set_xlabel(f"x [{lu}]")
+            ax.set_xlabel(f"{x_name(ds)} [{lu}]")
             ax.set_ylabel(f"z [{lu}]")
             fig.colorbar(m, ax=ax, shrink=0.8)
     fig.suptitle(f"packing phi; labelled contours: grain speed [{units_of(ds, 'u', 'm s-1')}] where "
@@ -433,7 +433,7 @@ def snapshot_axes(ax, ds, var: str, index: int, limits: tuple[float, float] | No
     bar = ax.figure.colorbar(mesh, ax=ax, location="bottom", shrink=0.9, aspect=40)
     bar.set_label(field_label(field))
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x [{ds['x'].attrs.get('units', 'm')}]")
+    ax.set_xlabel(f"{x_name(ds)} [{ds['x'].attrs.get('units', 'm')}]")
     ax.set_ylabel(f"z [{ds['z'].attrs.get('units', 'm')}]")
     ax.set_title(_title(ds, var, index) + f"; line: phi = {free_surface_level(ds):g}, dashed: front",
                  fontsize="small")

@@ -35,3 +35,9 @@ def draw_terrain(ax, ds) -> None:
         x = np.concatenate([[min(xe[0], px[0])], px, [max(xe[-1], px[-1])]])
         ax.plot(x, np.concatenate([[pz[0]], pz, [pz[-1]]]), "k-", linewidth=0.8, zorder=3)
         ax.set_xlim(xe[0], xe[-1])
+
+
+def x_name(ds) -> str:
+    """The name of a run's x axis in figures: ``r`` on an axisymmetric grid (output.nc attribute
+    ``geometry``), else ``x``."""
+    return "r" if ds.attrs.get("geometry") == "axisymmetric" else "x"

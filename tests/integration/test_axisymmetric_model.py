@@ -145,8 +145,6 @@ def test_what_is_not_supported_yet_is_refused_by_name():
 
 
 def test_case_file_option_checked_by_key(tmp_path):
-    with pytest.raises(GranflowInputError, match=r"setup\.preparation.*axisymmetric"):
-        load_case(EXAMPLE, overrides=['gas.law="linear"', 'setup.preparation="injection"'])
     with pytest.raises(GranflowInputError, match=r"inflow\.side.*axisymmetric"):
         load_case(EXAMPLE, overrides=['inflow.side="bottom"', "inflow.upper=0.05", "inflow.speed=0.1"])
     with pytest.raises(GranflowInputError, match=r"walls\.west.*axis"):

@@ -211,3 +211,16 @@ def test_injection_with_gas_law_none_exits_2_naming_setup_preparation(tmp_path, 
     err = capsys.readouterr().err
     assert code == ExitCode.BAD_INPUT and "setup.preparation" in err and "gas.law" in err
     assert not (tmp_path / "x" / "output.nc").exists()
+
+
+def test_the_axisymmetric_reservoir_prepares_as_the_plane_one():
+    """The injection through the whole base of a uniform reservoir gives the same p_f in every
+    column, so the (r, z) reservoir (a cylinder of radius L0, every row weighted by its ring) must
+    reach the plane reservoir's state: the same steps, p_f to 1e-9 relative, at rest."""
+    plane = prep.prepare(config(U_prep_over_Umf=0.5))
+    d = case(U_prep_over_Umf=0.5)
+    d["grid"]["geometry"] = "axisymmetric"
+    axi = prep.prepare(CaseConfig.from_dict(d))
+    assert axi.model.grid.axisymmetric and axi.state.step == plane.state.step
+    assert np.allclose(axi.state.p_f, plane.state.p_f, rtol=1e-9, atol=1e-9 * plane.state.p_f.max())
+    assert axi.max_speed <= 1e-9

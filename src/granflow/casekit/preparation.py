@@ -328,7 +328,7 @@ def preparation_config(config: CaseConfig, U_prep: float) -> CaseConfig:
     east wall, injection ``U_prep`` through the base."""
     g, w = config.grid, config.walls
     n = reservoir_cells(config)
-    grid = GridSection(nx=n, nz=g.nz, Lx=n * g.Lx / g.nx, Lz=g.Lz, periodic_x=False)
+    grid = GridSection(nx=n, nz=g.nz, Lx=n * g.Lx / g.nx, Lz=g.Lz, periodic_x=False, geometry=g.geometry)
     walls = WallsSection(west=w.west, east=GATE_WALL, bottom=w.bottom, top=w.top,
                          base_friction_deg=w.base_friction_deg)
     gas = GasSection(law=config.gas.law, U_inj=U_prep, open_top=config.gas.open_top,

@@ -95,9 +95,6 @@ def check(config: CaseConfig) -> list[tuple[str, str]]:
                                        "set periodic_x = false"))
     if s.b0 > 0 and config.gas.law == "none":
         out.append(("setup.b0", 'an initial pore pressure needs gas.law = "linear" or "nonlinear"'))
-    if config.grid.geometry == "axisymmetric" and s.preparation == Preparation.INJECTION:
-        out.append(("setup.preparation", '"injection" is not available on an axisymmetric grid yet '
-                                         '(use "none" with setup.b0 and setup.phi0)'))
     return out + topography_problems(config) + axisymmetric_problems(config)
 
 
