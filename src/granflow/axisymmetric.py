@@ -49,7 +49,7 @@ import scipy.sparse as sp
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side, VelocityBC, VelocityBCs
-from granflow.operators import Operators, StrainRateOn, sorted_unique
+from granflow.operators import Operators
 
 DEVIATOR_WEIGHT = 2.0 / 3.0
 """``2/3``: ``2 eta sum_i S_ii^2 = (2 eta / 3) sum_{i<j} (e_ii - e_jj)^2``."""
@@ -189,7 +189,7 @@ class AxisymmetricOperators:
     def strain_rows(self) -> tuple[sp.csr_matrix, sp.csr_matrix, sp.csr_matrix]:
         """The three pair rows scaled by ``sqrt(2/3)`` [m^-1]: ``|S|^2 = sum_k (row_k u)^2 / 4 +
         S_rz^2``, the form of the plane ``(ec u)^2 / 4 + S_xz^2`` (one row there); what the
-        strain-rate evaluations of the solver take (:class:`granflow.operators.StrainRateOn`,
+        strain-rate evaluations of the solver take (:class:`granflow.operators.StrainRateOn` ``rows``,
         :func:`granflow.physics.wall_friction.base_strain_rate_norm`)."""
         scale = np.sqrt(DEVIATOR_WEIGHT)
         return tuple((scale * e).tocsr() for e in self.pairs())
@@ -216,26 +216,3 @@ def _faces_to_cells(grid: Grid) -> sp.csr_matrix:
     nx, nz = grid.nx, grid.nz
     mean = sp.diags([np.full(nx, 0.5), np.full(nx, 0.5)], [0, 1], shape=(nx, nx + 1), format="csc")
     return sp.kron(mean[:, 1:-1], sp.identity(nz), format="csr")
-
-
-class AxisymmetricStrainRateOn(StrainRateOn):
-    """``|S|`` of :meth:`AxisymmetricOperators.strain_rate_norm` at the cells of a mask, 0 elsewhere
-    (the plane :class:`granflow.operators.StrainRateOn` with the three scaled pair rows of
-    :attr:`AxisymmetricOperators.strain_rows` in place of ``ec``)."""
-
-    @classmethod
-    def of(cls, ops: Operators, cells, rows=None) -> AxisymmetricStrainRateOn:
-        cells = np.flatnonzero(np.asarray(cells, dtype=bool).ravel())
-        n2c = sp.csr_matrix(ops.node_to_cell)[cells]
-        nodes = sorted_unique(n2c.indices)
-        renum = np.zeros(ops.node_to_cell.shape[1], dtype=n2c.indices.dtype)
-        renum[nodes] = np.arange(nodes.size)
-        n2c = sp.csr_matrix((n2c.data, renum[n2c.indices], n2c.indptr), shape=(cells.size, nodes.size))
-        return cls(ops, cells, tuple(sp.csr_matrix(r)[cells] for r in rows), sp.csr_matrix(ops.en)[nodes], n2c)
-
-    def __call__(self, vel) -> np.ndarray:
-        vel = self.ops._velocity(vel)
-        out = np.zeros(self.ops.grid.n_cells)
-        diag = sum((r @ vel) ** 2 for r in self.ec)
-        out[self.cells] = np.sqrt(0.25 * diag + 0.25 * (self.n2c @ (self.en @ vel) ** 2))
-        return out

@@ -27,7 +27,8 @@ from functools import cached_property
 
 import numpy as np
 
-from granflow.axisymmetric import AxisymmetricOperators, AxisymmetricStrainRateOn
+from granflow.axisymmetric import AxisymmetricOperators
+from granflow.operators import StrainRateOn
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
 
@@ -84,7 +85,7 @@ class GeometryWeights:
         :meth:`granflow.operators.Operators.strain_rate_on`)."""
         if self.axisymmetric_operators is None:
             return self.ops.strain_rate_on(cells)
-        return AxisymmetricStrainRateOn.of(self.ops, cells, self.strain_rows)
+        return StrainRateOn.of(self.ops, cells, self.strain_rows)
 
     def dual_mean(self, phi) -> np.ndarray:
         """The cells' field at the velocity unknowns as the volume-weighted mean of each face's

@@ -444,19 +444,23 @@ class StrainRateOn:
         self.ops, self.cells, self.ec, self.en, self.n2c = ops, cells, ec, en, n2c
 
     @classmethod
-    def of(cls, ops: Operators, cells) -> StrainRateOn:
+    def of(cls, ops: Operators, cells, rows=None) -> StrainRateOn:
+        """``rows``: several cell rows ``R_k`` in place of ``ec``, ``|S|^2 = sum (R_k u)^2/4 + ...``
+        (the axisymmetric grid's, :attr:`granflow.model.Model.strain_rows`)."""
         cells = np.flatnonzero(np.asarray(cells, dtype=bool).ravel())
         n2c = sp.csr_matrix(ops.node_to_cell)[cells]
         nodes = sorted_unique(n2c.indices)
         renum = np.zeros(ops.node_to_cell.shape[1], dtype=n2c.indices.dtype)
         renum[nodes] = np.arange(nodes.size)  # increasing: each row keeps its entry order
         n2c = sp.csr_matrix((n2c.data, renum[n2c.indices], n2c.indptr), shape=(cells.size, nodes.size))
-        return cls(ops, cells, sp.csr_matrix(ops.ec)[cells], sp.csr_matrix(ops.en)[nodes], n2c)
+        ec = sp.csr_matrix(ops.ec)[cells] if rows is None else tuple(sp.csr_matrix(r)[cells] for r in rows)
+        return cls(ops, cells, ec, sp.csr_matrix(ops.en)[nodes], n2c)
 
     def __call__(self, vel) -> np.ndarray:
         vel = self.ops._velocity(vel)
         out = np.zeros(self.ops.grid.n_cells)
-        out[self.cells] = np.sqrt(0.25 * (self.ec @ vel) ** 2 + 0.25 * (self.n2c @ (self.en @ vel) ** 2))
+        diag = sum((r @ vel) ** 2 for r in self.ec) if isinstance(self.ec, tuple) else (self.ec @ vel) ** 2
+        out[self.cells] = np.sqrt(0.25 * diag + 0.25 * (self.n2c @ (self.en @ vel) ** 2))
         return out
 
 
