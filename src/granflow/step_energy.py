@@ -8,7 +8,6 @@ powers are those of the whole cylinder [W].
 """
 from __future__ import annotations
 
-import numpy as np
 
 from granflow.physics import momentum_transport as mt
 

@@ -26,6 +26,7 @@ from granflow.physics.coupling import GasCoupling
 from granflow.rheology.base import make_closure
 from granflow.topography import Topography
 
+from _restart import assert_restart_bit_identical
 from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_axisymmetric.toml"
 PHI_MAX = 0.6
@@ -174,19 +175,8 @@ def test_tiny_run_writes_cylinder_units(tmp_path, capsys):
 def test_restart_on_an_axisymmetric_grid_is_bit_identical(tmp_path, capsys):
     """Restarted from its checkpoint at t = 0.02 s, the cylinder ends with the straight run's
     fields and budget bit for bit (the geometry is in the restored configuration)."""
-    args = ["--quiet", "--set", "output.figures=false", "--set", "grid.nx=20", "--set", "grid.nz=6",
-            "--set", "output.interval=0.01"]
-    straight, split = tmp_path / "straight", tmp_path / "split"
-    assert main(["run", str(EXAMPLE), "--out", str(straight), *args, "--set", "time.stop_time=0.04"]) == ExitCode.OK
-    assert main(["run", str(EXAMPLE), "--out", str(split), *args, "--set", "time.stop_time=0.02"]) == ExitCode.OK
-    assert main(["run", str(EXAMPLE), "--out", str(split), *args, "--set", "time.stop_time=0.04",
-                 "--restart", str(split)]) == ExitCode.OK
-    a = json.loads((straight / "summary.json").read_text())
-    b = json.loads((split / "summary.json").read_text())
-    assert a["energy"] == b["energy"] and a["steps"] == b["steps"]
-    with xr.open_dataset(straight / "output.nc") as x, xr.open_dataset(split / "output.nc") as y:
-        assert np.array_equal(x["phi"].values[-1], y["phi"].values[-1])
-        assert np.array_equal(x["u"].values[-1], y["u"].values[-1])
+    assert_restart_bit_identical(EXAMPLE, tmp_path, ["--set", "output.figures=false", "--set", "grid.nx=20",
+                                                     "--set", "grid.nz=6", "--set", "output.interval=0.01"], 0.02, 0.04)
     capsys.readouterr()
 
 

@@ -16,6 +16,7 @@ from granflow.cli.commands import ExitCode
 from granflow.config import CaseConfig, load_case
 from granflow.errors import GranflowInputError
 
+from _restart import assert_restart_bit_identical
 from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_on_topography.toml"
 
@@ -83,17 +84,6 @@ def test_tiny_run_on_the_example_profile(tmp_path, capsys):
 def test_restart_on_a_profile_is_bit_identical(tmp_path, capsys):
     """A run on the example profile restarted from its checkpoint at t = 0.03 s ends with the
     straight run's fields and budget, bit for bit (the profile is in the restored configuration)."""
-    args = ["--quiet", "--set", "output.figures=false", "--set", "grid.nx=24", "--set", "grid.nz=10",
-            "--set", "output.interval=0.01"]
-    straight, split = tmp_path / "straight", tmp_path / "split"
-    assert main(["run", str(EXAMPLE), "--out", str(straight), *args, "--set", "time.stop_time=0.05"]) == ExitCode.OK
-    assert main(["run", str(EXAMPLE), "--out", str(split), *args, "--set", "time.stop_time=0.03"]) == ExitCode.OK
-    assert main(["run", str(EXAMPLE), "--out", str(split), *args, "--set", "time.stop_time=0.05",
-                 "--restart", str(split)]) == ExitCode.OK
-    a = json.loads((straight / "summary.json").read_text())
-    b = json.loads((split / "summary.json").read_text())
-    assert a["energy"] == b["energy"] and a["steps"] == b["steps"]
-    with xr.open_dataset(straight / "output.nc") as x, xr.open_dataset(split / "output.nc") as y:
-        assert np.array_equal(x["phi"].values[-1], y["phi"].values[-1])
-        assert np.array_equal(x["u"].values[-1], y["u"].values[-1])
+    assert_restart_bit_identical(EXAMPLE, tmp_path, ["--set", "output.figures=false", "--set", "grid.nx=24",
+                                                     "--set", "grid.nz=10", "--set", "output.interval=0.01"], 0.03, 0.05)
     capsys.readouterr()
