@@ -22,7 +22,7 @@ a < 1.7 and 1.6 a^(1/2) above. Lajeunesse, Mangeney-Castelnau & Vilotte (2004, P
 2371; glass beads) report the same two regimes (linear, then a^(1/2)) with the transition at a
 lower a (~0.74); their prefactors are not reproduced here (not checked against the paper).
 
-Run:   python validation/axisymmetric/run.py [--quick] [--aspect 0.5 1 2 4] [--levels 0 1 2]
+Run:   python validation/axisymmetric/run.py [--quick] [--fluidised] [--aspect 0.5 1 2 4] [--levels 0 1 2]
 Time:  ~25 min on one core for the 12 runs (``--quick``: a = 1 on a 7-cell grid to t = 0.05 s,
        seconds; the smoke test of tests/validation_smoke/test_validation_axisymmetric.py).
 """
@@ -48,6 +48,9 @@ PHI_MAX = 0.6         # the example's material.phi_max
 ASPECTS = (0.5, 1.0, 2.0, 4.0)
 LEVEL_FACTORS = (1.0, math.sqrt(2.0), 2.0)
 QUICK = {"aspect": 1.0, "n": 7, "t_end": 0.05}
+FLUIDISED = ['gas.law="linear"', "setup.b0=0.9", "setup.phi0=0.58"]
+"""``--fluidised``: the settings of examples/column_collapse_fluidised.toml (an expanded column
+whose pore pressure carries 90 % of its weight at release; closed top, no injection)."""
 
 
 def lube_fit(a: float) -> float:
@@ -69,9 +72,10 @@ def box(a: float, n: int) -> tuple[int, int, float, float]:
     return nx, nz, nx * dx, nz * dx
 
 
-def run(resolution: int, quick: bool = False, aspect: float = 1.0) -> dict:
+def run(resolution: int, quick: bool = False, aspect: float = 1.0, fluidised: bool = False) -> dict:
     """One collapse of aspect ratio ``aspect`` with ``resolution`` cells over H0 (``quick``: to
-    t = 0.05 s only), through :class:`CaseRun` in a scratch directory; returns its record."""
+    t = 0.05 s only; ``fluidised``: with :data:`FLUIDISED`), through :class:`CaseRun` in a
+    scratch directory; returns its record."""
     from granflow.casekit.runner import CaseRun
     from granflow.config import load_case
 
@@ -81,6 +85,8 @@ def run(resolution: int, quick: bool = False, aspect: float = 1.0) -> dict:
             "output.rest_speed=0.0075"]
     if quick:
         sets.append(f"time.stop_time={QUICK['t_end']}")
+    if fluidised:
+        sets += FLUIDISED
     cfg = load_case(EXAMPLE, overrides=sets)
     t0 = time.process_time()
     with tempfile.TemporaryDirectory() as tmp:
@@ -90,7 +96,7 @@ def run(resolution: int, quick: bool = False, aspect: float = 1.0) -> dict:
         cpu = time.process_time() - t0
     r0, dz = H0 / aspect, lz / nz
     h = phi.sum(axis=1) * dz / PHI_MAX  # deposit thickness per column [m]
-    return {"a": aspect, "n": resolution, "nx": nx, "nz": nz, "dx_mm": 1e3 * H0 / resolution,
+    return {"a": aspect, "n": resolution, "fluid": fluidised, "nx": nx, "nz": nz, "dx_mm": 1e3 * H0 / resolution,
             "status": s["status"], "t_rest": s["t_rest"], "t_final": s["t_final"], "steps": s["steps"],
             "runout_rel": s["runout_m"] / r0, "h_axis_rel": s["final_height_at_wall"] / r0,
             **fronts(h, lx / nx, r0), "h_m": [round(float(v), 7) for v in h],
@@ -207,30 +213,55 @@ def main(argv=None) -> dict:
     ap.add_argument("--quick", action="store_true", help="a = 1 on a coarse grid to t = 0.05 s (smoke test)")
     ap.add_argument("--aspect", type=float, nargs="+", default=list(ASPECTS), help="aspect ratios H0/R0")
     ap.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2], help="levels (0 coarsest)")
+    ap.add_argument("--fluidised", action="store_true", help="also the fluidised columns (FLUIDISED)")
     args = ap.parse_args(argv)
     if args.quick:
         rows = [run(QUICK["n"], quick=True, aspect=QUICK["aspect"])]
         print(table(rows))
         return {"runs": rows}
     old = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
-    done = {(r["a"], r["n"]): r for r in old.get("runs", [])}
-    for a in args.aspect:
-        for level in args.levels:
-            n = cells_over_h0(a, level)
-            if (a, n) not in done:
-                done[(a, n)] = run(n, aspect=a)
-                print(table([done[(a, n)]]), flush=True)
-                RESULTS.write_text(json.dumps({"runs": sorted(done.values(), key=lambda r: (r["a"], r["n"]))},
-                                              indent=1))
-    rows = sorted(done.values(), key=lambda r: (r["a"], r["n"]))
+    done = {key(r): r for r in old.get("runs", [])}
+    for fluid in ((False, True) if args.fluidised else (False,)):
+        for a in args.aspect:
+            for level in args.levels:
+                n = cells_over_h0(a, level)
+                if (a, n, fluid) not in done:
+                    done[(a, n, fluid)] = run(n, aspect=a, fluidised=fluid)
+                    print(table([done[(a, n, fluid)]]), flush=True)
+                    RESULTS.write_text(json.dumps({"runs": sorted(done.values(), key=key)}, indent=1))
+    rows = sorted(done.values(), key=key)
     for r in rows:  # the front definitions, recomputed from the stored deposits
         r.update(fronts(r["h_m"], H0 / r["n"], H0 / r["a"]))
-    text, estimates = summary_table(rows)
+    dry = [r for r in rows if not r.get("fluid", False)]
+    text, estimates = summary_table(dry)
     print(table(rows))
     print(text)
+    ratios = ratio_table(rows)
+    print(ratios)
     RESULTS.write_text(json.dumps({"runs": rows, "estimates": estimates}, indent=1))
-    figure(rows, estimates, HERE / "runout.png")
+    figure(dry, estimates, HERE / "runout.png")
     return {"runs": rows, "estimates": estimates}
+
+
+def key(r: dict) -> tuple:
+    return r["a"], r["n"], r.get("fluid", False)
+
+
+def ratio_table(rows: list[dict]) -> str:
+    """Fluidised over dry run-out (toe front and 99 % mass radius) per aspect ratio and level."""
+    pairs = {(r["a"], r["n"]): {} for r in rows}
+    for r in rows:
+        pairs[(r["a"], r["n"])][r.get("fluid", False)] = r
+    lines = ["| a | N | toe: dry, fluidised, ratio | 99 % mass: dry, fluidised, ratio | fluidised t_rest [s] "
+             "| energy residual |", "|---:|---:|---|---|---:|---:|"]
+    for (a, n), pr in sorted(pairs.items()):
+        if len(pr) != 2:
+            continue
+        d, f = pr[False], pr[True]
+        lines.append(f"| {a:g} | {n} | {d['runout_toe']:.3f}, {f['runout_toe']:.3f}, "
+                     f"{f['runout_toe'] / d['runout_toe']:.2f} | {d['runout_m99']:.3f}, {f['runout_m99']:.3f}, "
+                     f"{f['runout_m99'] / d['runout_m99']:.2f} | {f['t_rest']:.3f} | {100 * f['energy_residual_rel']:.1f} % |")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
