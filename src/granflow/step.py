@@ -460,7 +460,7 @@ def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int, dila
     if not np.all(np.isfinite(phi_new)):
         bad = np.unravel_index(int(np.argmax(~np.isfinite(phi_new))), phi_new.shape)
         raise StepFailed(f"non-finite phi after transport {location(g, bad)}", sweeps)
-    phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, g.cell_volume)
+    phi_clip, bounds = clip_to_bounds(phi_new, mat.phi_max, g.cell_volume if g.radial is None else g.cell_volumes)
     tim["transport"] += time.perf_counter() - t0
     if bounds.max_before > mat.phi_max * (1.0 + model.phi_tolerance):
         where = location(g, np.unravel_index(int(np.argmax(phi_new)), phi_new.shape))

@@ -223,3 +223,21 @@ def test_fluidised_collapse_closes_the_gas_energy_identity():
     assert budget.residual_gas == pytest.approx(gas_terms, abs=1e-10 * scale)
     assert abs(budget.numerical["pressure_work_mismatch"]) < 1e-10 * scale
     assert budget.residual == pytest.approx(sum(budget.numerical.values()), abs=1e-10 * scale)
+
+
+def test_rest_speed_weighs_each_face_by_its_ring_mass():
+    """The rms granular speed that decides rest is mass-weighted: on the rings a face's mass is
+    2 pi r times its dual-cell fraction, so a fast core near the axis (little mass) counts less
+    than in a plane strip of the same cells."""
+    from granflow.output.recorders import granular_speeds
+
+    g = Grid(nx=10, nz=4, Lx=0.1, Lz=0.04, geometry="axisymmetric")
+    model = Model(g, closure())
+    st = model.initial_state(np.full(g.cell_shape, PHI_MAX))
+    u, w = g.unpack_velocity(st.vel)
+    u[1:5] = 1.0  # the inner half moves
+    st.vel[:] = g.pack_velocity(u, w)
+    rms, top = granular_speeds(model, st)
+    mass = model.dual_mean(st.phi) * g.unknown_metric
+    assert rms == pytest.approx(np.sqrt(np.sum(mass * st.vel ** 2) / np.sum(mass)), rel=1e-12)
+    assert rms < np.sqrt(4 / 9) - 0.05 and top == 1.0  # the plane weight would give sqrt(4/9) of the u faces

@@ -70,7 +70,9 @@ def granular_speeds(model: Model, state) -> tuple[float, float]:
     if not np.any(faces):
         return 0.0, 0.0
     v = state.vel[faces]
-    rms = float(np.sqrt(np.sum(phi_f[faces] * v * v) / np.sum(phi_f[faces])))
+    weight = getattr(model, "unknown_weight", None)  # axisymmetric: each face's ring mass
+    mass = phi_f[faces] if weight is None else model.dual_mean(state.phi)[faces] * weight[faces]
+    rms = float(np.sqrt(np.sum(mass * v * v) / np.sum(mass)))
     return rms, float(np.max(np.abs(v)))
 
 
@@ -324,7 +326,8 @@ class EquilibriumRangeCheck:
         grains = (st.phi >= m.ambient.phi_c) & (st.p > 0)
         if not np.any(grains):
             return
-        S = m.ops.strain_rate_norm(st.vel).reshape(m.grid.cell_shape)
+        ops = getattr(m, "axisymmetric_operators", None) or m.ops  # (|S| with the hoop strain)
+        S = ops.strain_rate_norm(st.vel).reshape(m.grid.cell_shape)
         I = m.material.inertial_number(S[grains], st.p[grains])
         I = I[np.isfinite(I)]
         if not I.size:

@@ -154,7 +154,7 @@ def limit_to_lower_bound(q, fx, fz, dt, dx, dz, periodic):
         for j in range(nz):
             out = (cx * (max(fx[i + 1, j], 0.0) + max(-fx[i, j], 0.0))
                    + cz * (max(fz[i, j + 1], 0.0) + max(-fz[i, j], 0.0)))
-            if out > q[i, j]:
+            if out > max(q[i, j], 0.0):  # as the NumPy reference (q = -1e-20 with no outflow)
                 any_over = True
                 r[i, j] = max(q[i, j], 0.0) / out
     if any_over:

@@ -394,6 +394,9 @@ class PorePressureStep:
                  gas: GasLaw | str = GasLaw.LINEAR, dirichlet=None, open_top: bool = False,
                  injection=0.0,
                  compressibility: GasCompressibility | str = GasCompressibility.ISOTHERMAL) -> None:
+        if getattr(grid, "axisymmetric", False):
+            raise GranflowInputError("PorePressureStep is plane (per unit width); an axisymmetric grid's gas rows "
+                                     "are weighted by the rings (granflow.physics.coupling.GasCoupling)")
         self.ops = _checked(grid, ops, material)
         self.grid, self.material, self.gas = grid, material, _enum(GasLaw, gas)
         self.compressibility = _enum(GasCompressibility, compressibility)

@@ -423,6 +423,13 @@ class BoundReport:
     n_clipped: int
 
 
+def _volume(excess, cell_volume) -> float:
+    """``sum excess dV``: ``cell_volume`` a scalar (plane) or the cells' volumes (axisymmetric)."""
+    if np.ndim(cell_volume) == 0:
+        return float(excess.sum() * cell_volume)
+    return float(np.sum(excess * cell_volume))
+
+
 def clip_to_bounds(phi: np.ndarray, phi_max: float, cell_volume: float) -> tuple[np.ndarray, BoundReport]:
     """Clip phi to ``[0, phi_max]`` and report the mass removed/added (NUMERICS.md §6).
 
@@ -436,8 +443,8 @@ def clip_to_bounds(phi: np.ndarray, phi_max: float, cell_volume: float) -> tuple
     report = BoundReport(
         max_before=float(np.max(phi)),
         min_before=float(np.min(phi)),
-        clipped_mass=float(over.sum() * cell_volume),
-        added_mass=float(under.sum() * cell_volume),
+        clipped_mass=_volume(over, cell_volume),
+        added_mass=_volume(under, cell_volume),
         n_clipped=int(np.count_nonzero(over) + np.count_nonzero(under)),
     )
     return np.clip(phi, 0.0, phi_max), report
