@@ -23,7 +23,7 @@ a < 1.7 and 1.6 a^(1/2) above. Lajeunesse, Mangeney-Castelnau & Vilotte (2004, P
 lower a (~0.74); their prefactors are not reproduced here (not checked against the paper).
 
 Run:   python validation/axisymmetric/run.py [--quick] [--fluidised] [--aspect 0.5 1 2 4] [--levels 0 1 2]
-Time:  ~25 min on one core for the 12 runs (``--quick``: a = 1 on a 7-cell grid to t = 0.05 s,
+Time:  ~4.5 min on one core for the 15 dry runs, ~5 min more with --fluidised (``--quick``: a = 1 on a 7-cell grid to t = 0.05 s,
        seconds; the smoke test of tests/validation_smoke/test_validation_axisymmetric.py).
 """
 from __future__ import annotations
