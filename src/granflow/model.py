@@ -436,7 +436,7 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
             tr = step.transport_stage(self, state, dt, im.u, tim, sweeps, im.dilation)
         except step.StepFailed as failure:
             state.phi, state.c, state.p_f = kept  # (the refill too: it is booked with the step)
-            return self._failed(dt, failure.message, failure.sweeps or sweeps, tim)
+            return self._failed(dt, failure.message, failure.sweeps or sweeps, tim, failure.cfl)
         gas_powers = None
         if ex.gas_sys is not None:
             t0 = time.perf_counter()
@@ -487,7 +487,7 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
         return put_in
 
     @staticmethod
-    def _failed(dt: float, message: str, sweeps: int, timings: dict) -> StepReport:
+    def _failed(dt: float, message: str, sweeps: int, timings: dict, cfl: float = float("nan")) -> StepReport:
         return StepReport(status=StepStatus.FAILED, dt=dt, message=message,
-                          picard_iterations=sweeps, timings=timings)
+                          picard_iterations=sweeps, timings=timings, cfl=cfl)
 

@@ -4,7 +4,8 @@
   with the CFL number of :func:`granflow.physics.transport.cfl_number` over the model's
   ``transport_cells(phi, c)`` if it has that method (:meth:`granflow.model.Model.transport_cells`);
 * a step reported FAILED (NaN, Picard divergence, CFL or phi-bound violation) or leaving a
-  non-finite state is rejected: the state is restored and the step retried with ``dt/2``, at most
+  non-finite state is rejected: the state is restored and the step retried with ``dt/2`` (a CFL
+  failure: the dt that puts the CFL number 10 % under its bound, :func:`retry_factor`), at most
   ``max_retries`` times, then :class:`StepFailure` is raised;
 * scheduled entries run after every accepted step and once at the start, each when its schedule
   (:class:`IterationInterval`, :class:`TimeInterval`; module :mod:`granflow.schedules`) is due, in
@@ -58,6 +59,7 @@ from granflow.schedules import (  # noqa: F401 - re-exported: the schedules of a
     time_schedule_keys,
 )
 from granflow.state import State
+from granflow.step_retry import RETRY_FACTOR, retry_factor  # noqa: F401  (re-exported)
 
 SERIAL_BLAS = "openblas"
 """threadpoolctl ``internal_api`` of the BLAS pools run single-threaded during
@@ -77,16 +79,13 @@ DEFAULT_CFL = 0.3
 DEFAULT_DT_MAX = 1.0e-3
 """Accuracy cap on dt [s] (NUMERICS.md §8b)."""
 DEFAULT_MAX_RETRIES = 6
-"""Halvings of dt allowed for one step."""
-RETRY_FACTOR = 0.5
-"""dt of a retried step relative to the failed one."""
-
+"""Retries (smaller dt, :func:`retry_factor`) allowed for one step."""
 STATE_ARRAYS = ("phi", "vel", "p", "p_f")
 """State arrays stored in a checkpoint (under ``state.<name>``)."""
 
 
 class StepFailure(GranflowError):
-    """A step failed even after ``max_retries`` halvings of dt.
+    """A step failed even after ``max_retries`` retries with smaller dt.
 
     Attributes
     ----------
@@ -144,7 +143,7 @@ class RunTotals:
     """Running totals over all accepted steps of a run (restored by a restart)."""
 
     rejected: int = 0
-    """Rejected attempts (each retried with dt/2)."""
+    """Rejected attempts (each retried with a smaller dt, :func:`retry_factor`)."""
     clipped_mass: float = 0.0
     """Mass removed by clipping phi to phi_max [m^2]."""
     added_mass: float = 0.0
@@ -196,7 +195,7 @@ class Simulation:
     dt_max : float
         Largest time step [s]. Default 1e-3.
     max_retries : int
-        dt halvings allowed per step. Default 6.
+        retries with smaller dt allowed per step (:func:`retry_factor`). Default 6.
     max_steps : int, optional
         Stop after this many accepted steps.
     callbacks : sequence of Callback, optional
@@ -312,14 +311,15 @@ class Simulation:
                     break
                 what = report.message if report.failed else nonfinite_message(self.state, self.model.grid)
                 messages.append(f"dt={dt:.3g}: {what}")
+                last_dt = dt
                 self.state.restore(backup)
                 self.n_rejected += 1
                 self.totals.rejected += 1
-                dt *= RETRY_FACTOR
+                dt *= retry_factor(report)
             else:
                 raise StepFailure(
                     f"step {self.state.step + 1} at t = {self.state.t:.6g} s failed {len(messages)} times "
-                    f"(dt {dt0:.3g} down to {dt / RETRY_FACTOR:.3g} s): " + _summarise(messages),
+                    f"(dt {dt0:.3g} down to {last_dt:.3g} s): " + _summarise(messages),
                     t=self.state.t, step=self.state.step + 1, attempts=messages)
         except BaseException:
             self.state.restore(backup)

@@ -37,11 +37,11 @@ from granflow.step_energy import energy_terms  # noqa: F401  (stage 3, re-export
 
 class StepFailed(Exception):
     """A stage could not complete: ``message`` names the quantity, ``sweeps`` the Picard sweeps
-    done."""
+    done, ``cfl`` the CFL number of ``u^{n+1}`` when that is what failed (else NaN)."""
 
-    def __init__(self, message: str, sweeps: int = 0) -> None:
+    def __init__(self, message: str, sweeps: int = 0, cfl: float = float("nan")) -> None:
         super().__init__(message)
-        self.message, self.sweeps = message, sweeps
+        self.message, self.sweeps, self.cfl = message, sweeps, cfl
 
 
 @dataclass(frozen=True)
@@ -453,7 +453,7 @@ def transport_stage(model, state, dt: float, u_new, tim: dict, sweeps: int, dila
     t0 = time.perf_counter()
     cfl = cfl_number(g, u_new, dt, model.transport_cells(state.phi, state.c))
     if cfl > POSITIVITY_CFL:
-        raise StepFailed(f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps)
+        raise StepFailed(f"CFL number {cfl:.3g} of u^(n+1) exceeds {POSITIVITY_CFL}", sweeps, cfl=cfl)
     moved = model.transport(state.phi, u_new, dt, state.c, dilation)
     phi_new = moved.phi
     wrapped = dt * g.dz * float(np.sum(moved.flux_x[0])) if g.periodic_x else 0.0

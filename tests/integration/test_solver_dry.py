@@ -17,7 +17,7 @@ from granflow.model import Model, StepReport, StepStatus
 from granflow.operators import Operators
 from granflow.physics import momentum as mom
 from granflow.rheology import CLOSURES, make_closure
-from granflow.simulation import Simulation, StepFailure, TimeInterval
+from granflow.simulation import Simulation, StepFailure, TimeInterval, retry_factor
 from granflow.state import State
 
 G = 9.81
@@ -393,6 +393,38 @@ def test_failed_steps_are_retried_with_half_dt():
     with pytest.raises(StepFailure):
         sim.step()
     assert sim.state.t == pytest.approx(2.5e-4)  # the failed step left the state untouched
+
+
+class _CFLModel(Model):
+    """Fails, as the transport stage does, every step whose ``u^{n+1}`` would have the CFL number
+    ``rate * dt`` above 1/2 (``rate`` [1/s] independent of dt: the retry's premise)."""
+
+    rate = 2400.0
+    tried: list
+
+    def advance(self, state, dt):
+        self.tried.append(dt)
+        cfl = self.rate * dt
+        if cfl > 0.5:
+            return StepReport(status=StepStatus.FAILED, dt=dt, message="CFL", cfl=cfl)
+        return super().advance(state, dt)
+
+
+def test_a_cfl_failure_is_retried_with_the_dt_of_its_cfl_number():
+    """dt_1 = dt_0 * 0.9 * 0.5 / c (simulation.retry_factor), not dt_0 / 2: with c = 2400 * 1e-3
+    = 2.4 the retry's dt is 1e-3 * 0.45 / 2.4 = 1.875e-4, CFL 0.45 (accepted at once)."""
+    g = Grid(nx=4, nz=4, Lx=0.04, Lz=0.04)
+    model = _CFLModel(g, closure("drucker_prager"))
+    model.tried = []
+    sim = Simulation(model, model.initial_state(np.where(g.cell_coords()[1] < 0.02, PHI_MAX, 0.0)),
+                     stop_time=1e-3, dt_max=1e-3)
+    report = sim.step()
+    assert model.tried == [pytest.approx(1e-3), pytest.approx(1.875e-4, rel=1e-12)]
+    assert report.dt == pytest.approx(1.875e-4, rel=1e-12) and sim.n_rejected == 1
+    # a barely failing step loses 10 %, not half; a diverging one (c = 1e6) at most 90 %
+    fail = {c: StepReport(status=StepStatus.FAILED, dt=1.0, cfl=c) for c in (0.52, 1e6)}
+    assert retry_factor(fail[0.52]) == pytest.approx(0.45 / 0.52) and retry_factor(fail[1e6]) == 0.1
+    assert retry_factor(StepReport(status=StepStatus.FAILED, dt=1.0, message="NaN")) == 0.5
 
 
 def test_nan_state_is_rejected():

@@ -249,7 +249,7 @@ class TimeSection(Section):
     cfl: float = Field(DEFAULT_CFL, ge=MIN_CFL, le=POSITIVITY_CFL, description="CFL number of the time step [-]")
     dt_max: float = Field(DEFAULT_DT_MAX, gt=0, description="largest time step [s]")
     max_retries: int = Field(DEFAULT_MAX_RETRIES, ge=0, le=MAX_RETRIES,
-                             description="dt halvings allowed for one step [-]")
+                             description="retries with a smaller dt allowed for one step [-]")
     max_steps: int | None = Field(None, ge=1, le=MAX_STEPS, description="stop after this many steps in "
                                   "total, counted from t = 0, at most granflow.config.MAX_STEPS [-] "
                                   "(default: no limit)")
