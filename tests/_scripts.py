@@ -23,3 +23,16 @@ def load_script(rel: str, name: str | None = None, *, cached: bool = False) -> M
     module-level state the test file shares); otherwise it is executed afresh.
     """
     return scripts.load_script(ROOT / rel, name or rel.replace("/", "_").replace(".", "_"), cached=cached)
+
+
+def terminal_sigint() -> None:
+    """``preexec_fn`` of a child that a Ctrl-C test signals: SIGINT back to its default action and
+    unblocked, as a shell starts a foreground command. Both are inherited through fork and exec:
+    a suite started in the background of a non-interactive shell (``.ci/run &``) runs with SIGINT
+    ignored, and so did every child, whose run then finished undisturbed by the signal
+    (``test_ctrl_c_during_run_start_up_exits_130`` and the sweep's Ctrl-C test failed that way in
+    two full runs of session 19, and fail so with the parent's SIGINT set to SIG_IGN)."""
+    import signal
+
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

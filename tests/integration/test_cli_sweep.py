@@ -24,7 +24,7 @@ import pytest
 from granflow.cli import ExitCode, main
 from granflow.output import ordered
 
-from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
+from _scripts import ROOT, terminal_sigint  # noqa: E402  (the repository; tests/ holds tiers)
 NX, NZ, LX, LZ = 16, 6, 0.4, 0.15
 PHI_MAX = 0.6
 PHI_C = 0.3  # numerics.ambient.phi_c default: grains vs ambient
@@ -393,7 +393,7 @@ def test_ctrl_c_on_the_terminal_stops_the_sweep_cleanly(tmp_path):
            "sweep", str(sweep), "--out", str(out), "--workers", "2"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=terminal_sigint)
     deadline = time.monotonic() + 120.0
     while (len(list(out.glob("m000*/progress.json"))) < 2 and time.monotonic() < deadline
            and proc.poll() is None):

@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from _scripts import ROOT  # noqa: E402  (the repository; tests/ holds tiers)
+from _scripts import ROOT, terminal_sigint  # noqa: E402  (the repository; tests/ holds tiers)
 EXAMPLE = ROOT / "examples" / "column_collapse_dry.toml"
 # The console script's body, with a line on stdout once ``main`` has entered its ``try`` (printed
 # from build_parser, its first call): the signal is sent after it, so it cannot land before
@@ -38,7 +38,7 @@ def test_ctrl_c_during_run_start_up_exits_130(tmp_path):
     proc = subprocess.Popen(
         [sys.executable, "-c", CHILD, "run", str(EXAMPLE), "--out", str(tmp_path / "run"),
          "--quiet", "--set", "grid.nx=16", "--set", "grid.nz=6"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=terminal_sigint)
     try:
         assert proc.stdout.readline().strip() == "ready"
         proc.send_signal(signal.SIGINT)
