@@ -59,7 +59,7 @@ from granflow.schedules import (  # noqa: F401 - re-exported: the schedules of a
     time_schedule_keys,
 )
 from granflow.state import State
-from granflow.step_retry import RETRY_FACTOR, retry_factor  # noqa: F401  (re-exported)
+from granflow.step_retry import retry_factor
 
 SERIAL_BLAS = "openblas"
 """threadpoolctl ``internal_api`` of the BLAS pools run single-threaded during

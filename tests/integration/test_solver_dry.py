@@ -17,7 +17,8 @@ from granflow.model import Model, StepReport, StepStatus
 from granflow.operators import Operators
 from granflow.physics import momentum as mom
 from granflow.rheology import CLOSURES, make_closure
-from granflow.simulation import Simulation, StepFailure, TimeInterval, retry_factor
+from granflow.simulation import Simulation, StepFailure, TimeInterval
+from granflow.step_retry import retry_factor
 from granflow.state import State
 
 G = 9.81
