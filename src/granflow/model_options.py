@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Literal
 
 import numpy as np
 from pydantic import Field, field_validator
@@ -163,6 +164,19 @@ cap of 12, session 12); the former cap of 4 accepted 13 % (Lagree) and 14 % (fla
 unconverged, for 6 % fewer sweeps; fronts and t_rest unchanged (docs/solver.md)."""
 
 
+class Predictor(str, Enum):
+    """First iterate of the Picard loop (:attr:`PicardParams.predictor`)."""
+
+    PREVIOUS = "previous"
+    """``u^n``: the closure, the strain rate and the momentum fluxes of the first sweep are
+    those of the last step (lagged by one step: an O(dt) error in the coefficients)."""
+    EXTRAPOLATED = "extrapolated"
+    """``u^n + dt a^n`` with ``a^n = (u^n - u^{n-1}) / dt_{n-1}`` the last step's mean
+    acceleration (:attr:`granflow.state.State.accel`): the coefficients of the first sweep
+    are O(dt^2) from those of ``u^{n+1}`` where the flow is smooth in time. ``u^n`` at the
+    first step and after a restart from a checkpoint without ``state.accel``."""
+
+
 class PicardParams(Params):
     """Picard / active-set loop of one step.
 
@@ -175,11 +189,19 @@ class PicardParams(Params):
         did not change [-]. Default 1e-3.
     fail_tol : float
         The step FAILS if the last relative increment exceeds this [-]. Default 0.5.
+    predictor : {"previous", "extrapolated"}
+        First iterate of the loop (:class:`Predictor`). Default ``"previous"`` (``u^n``).
+        With ``"extrapolated"`` and ``max_sweeps = 1`` the step is *linearly implicit*: one
+        linear solve with coefficients extrapolated from the two last steps (docs/solver.md,
+        "One solve per step").
     """
 
     max_sweeps: int = Field(DEFAULT_MAX_SWEEPS, ge=1, le=MAX_PICARD_SWEEPS, description="maximum Picard sweeps per step")
     tol: float = Field(1.0e-3, gt=0, description="relative velocity-increment tolerance")
     fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
+    predictor: Literal["previous", "extrapolated"] = Field(
+        Predictor.PREVIOUS.value, description='first iterate: "previous" (u^n) or "extrapolated" '
+        "(u^n + dt (u^n - u^(n-1)) / dt_(n-1)) [-]")
 
 
 class StepStatus(str, Enum):

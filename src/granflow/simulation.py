@@ -58,7 +58,7 @@ from granflow.schedules import (  # noqa: F401 - re-exported: the schedules of a
     add_entry_payloads,
     time_schedule_keys,
 )
-from granflow.state import State
+from granflow.state import OPTIONAL_FIELDS, State
 from granflow.step_retry import retry_factor
 
 SERIAL_BLAS = "openblas"
@@ -418,7 +418,7 @@ class Simulation:
     def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """``(arrays, scalars)`` with everything a bit-identical restart needs.
 
-        Arrays: ``state.<phi|vel|p|p_f>`` and the array fields of the energy budget
+        Arrays: ``state.<phi|vel|p|p_f>`` (and ``c``, ``accel`` if set), the array fields of the budget
         (``budget.rho_f``). Scalars: ``state.t``, ``state.step``, the other budget fields,
         :class:`RunTotals`, and the next due time of every :class:`TimeInterval` schedule
         (``schedule.<name>``), which decides future time steps. Then what the scheduled entries
@@ -427,9 +427,8 @@ class Simulation:
         Save them with :func:`granflow.output.checkpoint.save_checkpoint` (exact round trip).
         """
         st, b = self.state, self.budget
-        arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS}
-        if st.c is not None:
-            arrays["state.c"] = st.c
+        arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS + OPTIONAL_FIELDS
+                  if getattr(st, k) is not None}
         scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected}
         for f in fields(b):  # every float, array and dict-of-floats field of the budget
             value = getattr(b, f.name)
@@ -460,7 +459,7 @@ class Simulation:
         try:
             state = State(**{k: np.array(arrays[f"state.{k}"]) for k in STATE_ARRAYS},
                           t=float(scalars["state.t"]), step=int(scalars["state.step"]),
-                          c=np.array(arrays["state.c"]) if "state.c" in arrays else None)
+                          **{k: np.array(arrays[f"state.{k}"]) for k in OPTIONAL_FIELDS if f"state.{k}" in arrays})
             budget: dict[str, Any] = {}
             for f in fields(b):
                 value, key = getattr(b, f.name), f"budget.{f.name}"

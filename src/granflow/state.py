@@ -12,6 +12,9 @@ field      shape                       meaning
                                        dry model)
 ``c``      ``(nx, nz)`` or None        material fraction [-] (``numerics.surface = "indicator"``,
                                        :mod:`granflow.physics.material`; None otherwise)
+``accel``  ``(grid.n_unknowns,)`` or     mean acceleration of the last accepted step,
+           None                        ``(u^n - u^(n-1)) / dt_(n-1)`` [m s^-2] (the Picard
+                                       predictor ``"extrapolated"``); None before the first step
 ``t``      scalar                      time [s]
 ``step``   scalar                      number of accepted steps
 =========  ==========================  ==========================================================
@@ -27,6 +30,10 @@ import numpy as np
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
+
+
+OPTIONAL_FIELDS = ("c", "accel")
+"""Array fields that may be None (checked only when present)."""
 
 
 def _field(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
@@ -59,6 +66,10 @@ class State:
     c : ndarray, (nx, nz), optional
         Material fraction [-] of the indicator surface (:mod:`granflow.physics.material`);
         None for the threshold surface.
+    accel : ndarray, (n_unknowns,), optional
+        Mean acceleration of the last accepted step [m s^-2] (set by
+        :meth:`granflow.model.Model.advance`; read by the Picard predictor ``"extrapolated"``,
+        :class:`granflow.model_options.Predictor`). None before the first step.
     """
 
     phi: np.ndarray
@@ -68,6 +79,7 @@ class State:
     t: float = 0.0
     step: int = 0
     c: np.ndarray | None = None
+    accel: np.ndarray | None = None
 
     @classmethod
     def at_rest(cls, grid: Grid, phi, p=0.0, p_f=0.0, t: float = 0.0, c=None) -> State:
@@ -107,9 +119,10 @@ class State:
     def check(self, grid: Grid) -> None:
         """Raise :class:`GranflowInputError` if a field does not fit ``grid``."""
         for name, shape in (("phi", grid.cell_shape), ("p", grid.cell_shape),
-                            ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,)), ("c", grid.cell_shape)):
+                            ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,)), ("c", grid.cell_shape),
+                            ("accel", (grid.n_unknowns,))):
             a = getattr(self, name)
-            if name == "c" and a is None:
+            if name in OPTIONAL_FIELDS and a is None:
                 continue
             if not isinstance(a, np.ndarray) or a.shape != shape:
                 got = getattr(a, "shape", type(a).__name__)
@@ -119,7 +132,8 @@ class State:
         """Deep copy (independent arrays)."""
         return State(phi=self.phi.copy(), vel=self.vel.copy(), p=self.p.copy(),
                      p_f=self.p_f.copy(), t=self.t, step=self.step,
-                     c=None if self.c is None else self.c.copy())
+                     c=None if self.c is None else self.c.copy(),
+                     accel=None if self.accel is None else self.accel.copy())
 
     def restore(self, other: State) -> None:
         """Overwrite this state, in place, with a copy of ``other`` (undo a rejected step)."""
@@ -128,11 +142,13 @@ class State:
         self.p = other.p.copy()
         self.p_f = other.p_f.copy()
         self.c = None if other.c is None else other.c.copy()
+        self.accel = None if other.accel is None else other.accel.copy()
         self.t = other.t
         self.step = other.step
 
     def is_finite(self) -> bool:
         """True if every field is finite (the default NaN check of the Simulation)."""
-        fields = (self.phi, self.vel, self.p, self.p_f) + (() if self.c is None else (self.c,))
+        fields = (self.phi, self.vel, self.p, self.p_f) + tuple(
+            a for a in (self.c, self.accel) if a is not None)
         return bool(all(np.all(np.isfinite(a)) for a in fields)
                     and np.isfinite(self.t))

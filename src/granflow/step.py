@@ -24,7 +24,7 @@ import scipy.sparse.linalg as spla
 
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
-from granflow.model_options import BaseFriction
+from granflow.model_options import BaseFriction, Predictor
 from granflow.physics import inflow
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
@@ -351,12 +351,21 @@ def initial_free(ex: Explicit, dense) -> tuple[np.ndarray, np.ndarray | None]:
     return (np.zeros_like(dense) if fixed is None else fixed.copy()), fixed
 
 
+def first_iterate(model, state, dt: float) -> np.ndarray:
+    """The Picard loop's first velocity iterate [m s^-1] (:class:`granflow.model_options.Predictor`):
+    ``u^n``, or ``u^n + dt a^n`` with the last step's mean acceleration ``a^n = state.accel``
+    (a linear extrapolation in time from ``u^(n-1)`` and ``u^n``; ``u^n`` without it)."""
+    if model.picard.predictor == Predictor.EXTRAPOLATED and state.accel is not None:
+        return state.vel + dt * state.accel
+    return state.vel.copy()
+
+
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
     """Stage 2: the Picard loop (module docstring of :mod:`granflow.model`, step 2)."""
     g, ops = model.grid, model.ops
     consistent = model.advection is mom.Advection.CONSISTENT
     dense = ex.dense
-    u_k = state.vel.copy()
+    u_k = first_iterate(model, state, dt)
     p_k = np.maximum(state.p.ravel(), 0.0)
     p_f_new = state.p_f.ravel()
     free, fixed_free = initial_free(ex, dense)

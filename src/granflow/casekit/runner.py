@@ -368,8 +368,8 @@ class CaseRun:
                 f"{ended} before the flow came to rest, so the run-out "
                 + (f"{runout:.4g} {length}" if np.isfinite(runout) else "")
                 + " is not final; raise time.stop_time and set time.stop_at_rest")
-        if tot.not_converged:
-            pic = cfg.numerics.picard
+        pic = cfg.numerics.picard
+        if tot.not_converged and pic.max_sweeps > 1:  # max_sweeps = 1: one solve per step, by choice
             warnings.append(
                 f"Picard iteration not converged in {tot.not_converged} of {st.step} steps "
                 f"({100.0 * tot.not_converged / max(st.step, 1):.0f} %): those steps were accepted after "
@@ -427,7 +427,7 @@ class CaseRun:
                        "residual": b.residual, **{f"numerical_{k}": v for k, v in b.numerical.items()}},
             "picard": {"iterations": tot.picard_iterations, "not_converged_steps": tot.not_converged,
                        "not_converged_fraction": tot.not_converged / st.step if st.step else 0.0,
-                       "max_cells_negative_Z": tot.max_negative_Z},
+                       "max_cells_negative_Z": tot.max_negative_Z, "max_sweeps": cfg.numerics.picard.max_sweeps},
             "linear_solver": {"name": sim.model.linear_solver_name,
                               "krylov_iterations": tot.linear_iterations,
                               # solves PARDISO handed to SuperLU (residual check; counted since this process started)

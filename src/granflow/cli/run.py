@@ -262,8 +262,11 @@ def completion_line(case, s: dict) -> str:
     headline = (case.headline or headlines.column_collapse)(s)
     if s.get("still_moving"):
         headline += " (still moving: not final)"
-    unconverged = (s.get("picard") or {}).get("not_converged_steps")
-    if unconverged:
+    picard = s.get("picard") or {}
+    unconverged = picard.get("not_converged_steps")
+    if picard.get("max_sweeps") == 1:  # by choice: a linearly implicit step (docs/solver.md)
+        headline += "; one solve per step (numerics.picard.max_sweeps = 1)"
+    elif unconverged:
         headline += f"; Picard not converged in {unconverged} of {s['steps']} steps"
     return (f"completed t = {s['t_final']:.6g} {case.unit('time')} in {s['steps']} steps "
             f"({s['wall_s']:.1f} s wall); {headline}")
