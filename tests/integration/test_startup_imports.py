@@ -32,3 +32,13 @@ def test_config_overrides_do_not_import_the_schema():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
     assert res.stdout.split() == ["False", "False"]
+
+
+def test_a_run_does_not_import_scipy_optimize():
+    # the two brentq root finds (dilatancy's backward-Euler layer step, the defluidisation
+    # half-life) import it where they run: it was 0.16-0.2 s of every run's start-up
+    code = ("import sys, granflow.casekit.runner, granflow.cli, granflow.cases; "
+            "print('scipy.optimize' in sys.modules)")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["False"]

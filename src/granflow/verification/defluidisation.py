@@ -26,7 +26,6 @@ import math
 from enum import Enum
 
 import numpy as np
-from scipy.optimize import brentq
 
 from granflow.errors import GranflowInputError
 
@@ -228,6 +227,8 @@ def basal_half_life(H: float, c: float,
     while excess(upper) > 0.0:  # the basal pressure decreases monotonically to 0
         upper *= 2.0
     lower = 1e-6
+    from scipy.optimize import brentq  # here: not in every run's start-up (0.16 s)
+
     return brentq(excess, lower, upper, xtol=1e-14, rtol=1e-13) * tau
 
 
