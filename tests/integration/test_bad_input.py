@@ -154,6 +154,18 @@ def test_negative_phi_eq_reached_in_a_run_warns_once(mu_i_run, tmp_path, monkeyp
     assert caplog.text.count("phi_eq(I)") == 1
 
 
+def test_negative_phi_eq_is_not_reported_for_an_isochoric_closure(mu_i_run, tmp_path, monkeypatch):
+    """f = 0 never reads phi_eq: the same forced I = 5 as above gives no warning."""
+    from granflow.materials import Material
+
+    case, _ = mu_i_run
+    monkeypatch.setattr(Material, "inertial_number", lambda self, S, p: np.full(np.shape(S), 5.0))
+    out = tmp_path / "iso"
+    assert main(["run", str(case), "--out", str(out), *TINY, "--set", 'closure.name="incompressible"']) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert not [w for w in summary["warnings"] if "phi_eq(I)" in w], summary["warnings"]
+
+
 def test_unreachable_scheduler_writes_nothing(tmp_path, capsys):
     dask = pytest.importorskip("dask")
     pytest.importorskip("distributed")

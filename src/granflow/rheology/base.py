@@ -59,6 +59,8 @@ class Closure(Params):
     reference: ClassVar[bool] = False
     #: Paper label(s) of the equations the closure implements.
     source: ClassVar[str] = ""
+    #: True when f = 0 (div u = 0): the equilibrium law phi_eq(I) plays no part in the flow.
+    isochoric: ClassVar[bool] = False
 
     material: Material = Field(default_factory=Material)
     equilibrium: EquilibriumLaw = Field(default_factory=LinearEquilibrium)

@@ -97,6 +97,7 @@ class Incompressible(SelectableYield):
 
     summary: ClassVar[str] = "reference: f = 0 (isochoric), Z = mu(I) or sin(delta)"
     source: ClassVar[str] = "def:tau with div u = 0"
+    isochoric: ClassVar[bool] = True
 
     def A(self, phi, I):
         return np.zeros(np.broadcast(_arr(phi), _arr(I)).shape)
