@@ -80,7 +80,7 @@ DEFAULT_SWEEPS = None
 
 def config(n: int, model: str, solver: str, stop_time: float, max_steps: int | None,
            aspect: float, threshold: float, sweeps: int | None = DEFAULT_SWEEPS,
-           band: int | None = None) -> CaseConfig:
+           band: int | None = None, predictor: str | None = None) -> CaseConfig:
     """The case file of one run (as a dict through the strict loader)."""
     time_section = {"stop_time": stop_time, "dt_max": DT_MAX}
     if max_steps:
@@ -88,15 +88,18 @@ def config(n: int, model: str, solver: str, stop_time: float, max_steps: int | N
     return CaseConfig.from_dict({
         "case": {"name": CASE}, "setup": {"model": model, "a": aspect},
         "grid": {"nx": n, "nz": n}, "time": time_section,
-        "numerics": {"linear_solver": solver, "picard": {} if sweeps is None else {"max_sweeps": sweeps},
+        "numerics": {"linear_solver": solver,
+                     "picard": ({} if sweeps is None else {"max_sweeps": sweeps})
+                     | ({} if predictor is None else {"predictor": predictor}),
                      "ambient": {} if band is None else {"velocity_band": band}},
         "output": {"front_threshold": threshold}})
 
 
 def run_one(n: int, model: str, solver: str, stop_time: float, max_steps: int | None,
-            aspect: float, threshold: float, sweeps: int | None = DEFAULT_SWEEPS, band: int | None = None) -> Row:
+            aspect: float, threshold: float, sweeps: int | None = DEFAULT_SWEEPS, band: int | None = None,
+            predictor: str | None = None) -> Row:
     """One run; figures of :class:`Row`."""
-    cfg = config(n, model, solver, stop_time, max_steps, aspect, threshold, sweeps, band)
+    cfg = config(n, model, solver, stop_time, max_steps, aspect, threshold, sweeps, band, predictor)
     sim = CASES.get(CASE).setup(cfg)
     cpu0, wall0 = time.process_time(), time.perf_counter()
     sim.run()
@@ -156,6 +159,9 @@ def main(argv: list[str] | None = None) -> list[Row]:
                     help="deposit thickness defining the front [H0]")
     ap.add_argument("--picard-sweeps", type=int, default=DEFAULT_SWEEPS,
                     help="numerics.picard.max_sweeps (default: the model's; 1 = one lagged-coefficient solve per step)")
+    ap.add_argument("--predictor", choices=("previous", "extrapolated"), default=None,
+                    help="numerics.picard.predictor (default: the model's, previous; with --picard-sweeps 1 "
+                         "extrapolated is the linearly implicit step of docs/solver.md)")
     ap.add_argument("--velocity-band", type=int, default=None,
                     help="numerics.ambient.velocity_band [cells] (default: the case's, 3; 0 = solve everywhere)")
     ap.add_argument("--in-process", action="store_true",
@@ -164,7 +170,7 @@ def main(argv: list[str] | None = None) -> list[Row]:
     resolutions = [int(v) for v in args.resolutions.split(",")]
     caps = _caps(args.max_steps, resolutions)
     jobs = [(n, model, solver, args.stop_time, caps[n], args.aspect, args.front_threshold, args.picard_sweeps,
-             args.velocity_band)
+             args.velocity_band, args.predictor)
             for model in args.models.split(",") for solver in args.linear_solvers.split(",")
             for n in resolutions]
     print(f"# {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start; "
