@@ -448,7 +448,7 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
         state.phi = tr.phi
         if tr.c is not None:
             state.c = tr.c
-        state.accel = (im.u - state.vel) / dt  # the "extrapolated" predictor's a^n (state.py)
+        state.accel, state.accel_dt = (im.u - state.vel) / dt, dt  # the "extrapolated" predictor's a^n
         state.vel = im.u
         state.p = im.p.reshape(self.grid.cell_shape)
         state.t += dt

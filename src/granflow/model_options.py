@@ -199,7 +199,7 @@ class PicardParams(Params):
     max_sweeps: int = Field(DEFAULT_MAX_SWEEPS, ge=1, le=MAX_PICARD_SWEEPS, description="maximum Picard sweeps per step")
     tol: float = Field(1.0e-3, gt=0, description="relative velocity-increment tolerance")
     fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
-    predictor: Literal["previous", "extrapolated"] = Field(
+    predictor: Literal[tuple(p.value for p in Predictor)] = Field(  # type: ignore[valid-type]
         Predictor.PREVIOUS.value, description='first iterate: "previous" (u^n) or "extrapolated" '
         "(u^n + dt (u^n - u^(n-1)) / dt_(n-1)) [-]")
 

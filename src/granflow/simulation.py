@@ -418,18 +418,18 @@ class Simulation:
     def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """``(arrays, scalars)`` with everything a bit-identical restart needs.
 
-        Arrays: ``state.<phi|vel|p|p_f>`` (and ``c``, ``accel`` if set), the array fields of the budget
-        (``budget.rho_f``). Scalars: ``state.t``, ``state.step``, the other budget fields,
-        :class:`RunTotals`, and the next due time of every :class:`TimeInterval` schedule
-        (``schedule.<name>``), which decides future time steps. Then what the scheduled entries
-        with a ``checkpoint_payload(simulation)`` method add (e.g. the front history of a
-        :class:`granflow.output.recorders.FrontRecorder`).
-        Save them with :func:`granflow.output.checkpoint.save_checkpoint` (exact round trip).
+        Arrays: ``state.<phi|vel|p|p_f>`` (``c``, ``accel`` if set), the array fields of the budget
+        (``budget.rho_f``). Scalars: ``state.t``, ``state.step`` (``accel_dt`` if set), the other
+        budget fields, :class:`RunTotals`, the next due time of every :class:`TimeInterval` schedule
+        (``schedule.<name>``), which decides future time steps. Then what the scheduled entries with
+        a ``checkpoint_payload(simulation)`` method add (e.g. a :class:`granflow.output.recorders.
+        FrontRecorder`'s front history). :func:`granflow.output.checkpoint.save_checkpoint` saves them.
         """
         st, b = self.state, self.budget
         arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS + OPTIONAL_FIELDS
                   if getattr(st, k) is not None}
-        scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected}
+        scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected,
+                                   **({} if st.accel_dt is None else {"state.accel_dt": st.accel_dt})}
         for f in fields(b):  # every float, array and dict-of-floats field of the budget
             value = getattr(b, f.name)
             if isinstance(value, np.ndarray):
@@ -459,6 +459,7 @@ class Simulation:
         try:
             state = State(**{k: np.array(arrays[f"state.{k}"]) for k in STATE_ARRAYS},
                           t=float(scalars["state.t"]), step=int(scalars["state.step"]),
+                          accel_dt=float(scalars["state.accel_dt"]) if "state.accel_dt" in scalars else None,
                           **{k: np.array(arrays[f"state.{k}"]) for k in OPTIONAL_FIELDS if f"state.{k}" in arrays})
             budget: dict[str, Any] = {}
             for f in fields(b):

@@ -14,7 +14,9 @@ field      shape                       meaning
                                        :mod:`granflow.physics.material`; None otherwise)
 ``accel``  ``(grid.n_unknowns,)`` or     mean acceleration of the last accepted step,
            None                        ``(u^n - u^(n-1)) / dt_(n-1)`` [m s^-2] (the Picard
-                                       predictor ``"extrapolated"``); None before the first step
+                                       predictor ``"extrapolated"``); None before the first
+                                       step and after a restart from a checkpoint without it
+``accel_dt`` scalar or None            that step's length ``dt_(n-1)`` [s]
 ``t``      scalar                      time [s]
 ``step``   scalar                      number of accepted steps
 =========  ==========================  ==========================================================
@@ -30,7 +32,6 @@ import numpy as np
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
-
 
 OPTIONAL_FIELDS = ("c", "accel")
 """Array fields that may be None (checked only when present)."""
@@ -70,6 +71,9 @@ class State:
         Mean acceleration of the last accepted step [m s^-2] (set by
         :meth:`granflow.model.Model.advance`; read by the Picard predictor ``"extrapolated"``,
         :class:`granflow.model_options.Predictor`). None before the first step.
+    accel_dt : float, optional
+        Length [s] of the step over which ``accel`` was measured (the predictor extrapolates
+        over at most this long). None before the first step.
     """
 
     phi: np.ndarray
@@ -80,6 +84,7 @@ class State:
     step: int = 0
     c: np.ndarray | None = None
     accel: np.ndarray | None = None
+    accel_dt: float | None = None
 
     @classmethod
     def at_rest(cls, grid: Grid, phi, p=0.0, p_f=0.0, t: float = 0.0, c=None) -> State:
@@ -133,7 +138,7 @@ class State:
         return State(phi=self.phi.copy(), vel=self.vel.copy(), p=self.p.copy(),
                      p_f=self.p_f.copy(), t=self.t, step=self.step,
                      c=None if self.c is None else self.c.copy(),
-                     accel=None if self.accel is None else self.accel.copy())
+                     accel=None if self.accel is None else self.accel.copy(), accel_dt=self.accel_dt)
 
     def restore(self, other: State) -> None:
         """Overwrite this state, in place, with a copy of ``other`` (undo a rejected step)."""
@@ -143,6 +148,7 @@ class State:
         self.p_f = other.p_f.copy()
         self.c = None if other.c is None else other.c.copy()
         self.accel = None if other.accel is None else other.accel.copy()
+        self.accel_dt = other.accel_dt
         self.t = other.t
         self.step = other.step
 

@@ -147,6 +147,11 @@ def test_completion_line_of_each_case():
     assert "half-life 0.0101 s" in line and "(+1 %)" in line and "run-out" not in line
     moving = dict(base, still_moving=True)
     assert completion_line(CASES.get("column_collapse"), moving).endswith("(still moving: not final)")
+    unconverged = dict(base, picard={"not_converged_steps": 5, "max_sweeps": 10})
+    assert completion_line(CASES.get("column_collapse"), unconverged).endswith("Picard not converged in 5 of 10 steps")
+    one_solve = dict(base, picard={"not_converged_steps": 5, "max_sweeps": 1})  # by choice: no "not converged"
+    line = completion_line(CASES.get("column_collapse"), one_solve)
+    assert line.endswith("; one solve per step (numerics.picard.max_sweeps = 1)") and "not converged" not in line
     assert math.isfinite(base["runout_m"])
 
 

@@ -208,7 +208,8 @@ def test_option_names_come_from_the_model_enums_and_solvers_are_registered():
     import typing
 
     from granflow import simulation
-    from granflow.config.schema import GasSection, NumericsSection, TimeSection, enum_values
+    from granflow.config.schema import GasSection, NumericsSection, PicardSection, TimeSection, enum_values
+    from granflow.model_options import Predictor
     from granflow.gas import GasLaw
     from granflow.model import AUTO_BANDED_DIRECT_UNKNOWNS, DEFAULT_EPS, LinearSolverChoice, Surface
     from granflow.physics.momentum import Advection
@@ -221,6 +222,7 @@ def test_option_names_come_from_the_model_enums_and_solvers_are_registered():
     assert options(NumericsSection, "advection") == enum_values(Advection)
     assert options(NumericsSection, "surface") == enum_values(Surface)
     assert options(GasSection, "law") == enum_values(GasLaw)
+    assert options(PicardSection, "predictor") == enum_values(Predictor)
     assert set(enum_values(LinearSolverChoice)) - {LinearSolverChoice.AUTO.value} <= set(LINEAR_SOLVERS.names())
     t = TimeSection()
     assert (t.cfl, t.dt_max, t.max_retries) == (simulation.DEFAULT_CFL, simulation.DEFAULT_DT_MAX,

@@ -289,7 +289,9 @@ class SweepDisplay:
         if p.summary.get("still_moving"):
             what += " (still moving: not final)"
         not_converged = p.summary.get("picard.not_converged_steps") or 0
-        if not_converged:  # as on the end-of-run line of granflow run
+        if p.summary.get("picard.max_sweeps") == 1:  # as on the end-of-run line of granflow run
+            what += "; one solve per step"
+        elif not_converged:
             what += f"; Picard not converged in {not_converged} of {p.summary.get('steps')} steps"
         return (f"{p.member_id} {p.status} ({p.done}/{p.total} done, "
                 f"{_duration(p.elapsed_s)} elapsed){what}")
