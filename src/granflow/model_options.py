@@ -188,7 +188,10 @@ class PicardParams(Params):
         Converged when ``|u_{k+1} - u_k| <= tol (|u_{k+1}| + sqrt(n) eps Lz)`` and the active set
         did not change [-]. Default 1e-3.
     fail_tol : float
-        The step FAILS if the last relative increment exceeds this [-]. Default 0.5.
+        The step FAILS if the last relative increment exceeds this [-]. Default 0.5. Not with
+        ``max_sweeps = 1``: one solve has no loop to diverge, and its increment is the step's own
+        change from the first iterate (near rest it reached 0.95 of the small velocities whatever
+        dt, and a decelerating axisymmetric column failed at t = 0.35 s).
     predictor : {"previous", "extrapolated"}
         First iterate of the loop (:class:`Predictor`). Default ``"previous"`` (``u^n``).
         With ``"extrapolated"`` and ``max_sweeps = 1`` the step is *linearly implicit*: one

@@ -118,3 +118,14 @@ def test_a_one_solve_run_neither_warns_nor_says_not_converged(tmp_path, capsys):
     assert summary["picard"]["max_sweeps"] == 1 and summary["picard"]["not_converged_steps"] > 0  # counted
     assert not [w for w in summary["warnings"] if "Picard" in w]
     assert "one solve per step" in printed and "not converged" not in printed
+
+
+def test_fail_tol_judges_the_loop_not_the_one_solve_step():
+    """With one solve the 'increment' is the step's change from the first iterate (0.3-0.5 in the
+    first steps from rest): fail_tol = 0.1 must not reject it; iterated, the same fail_tol still
+    fails a step that stops unconverged at the cap."""
+    from granflow.simulation import StepFailure
+
+    assert np.abs(layer(0.5, 0.05, max_sweeps=1, predictor="extrapolated", fail_tol=0.1)).max() > 0.0
+    with pytest.raises(StepFailure):
+        layer(0.5, 0.05, max_sweeps=1 + 1, tol=1e-12, fail_tol=1e-9)
