@@ -330,8 +330,9 @@ def test_step_failure_exits_1_and_keeps_output_and_checkpoint(test_cases, tmp_pa
 
 
 def test_solver_failure_from_the_case_file_exits_1(tmp_path, capsys):
-    """A Picard tolerance no step can meet: every attempt of step 1 fails."""
-    code, _, err = tiny(capsys, tmp_path / "f", 0.05, "--set", "numerics.picard.max_sweeps=1",
+    """A Picard tolerance no step can meet: every attempt of step 1 fails (two sweeps: with one,
+    fail_tol is not checked, there is no loop)."""
+    code, _, err = tiny(capsys, tmp_path / "f", 0.05, "--set", "numerics.picard.max_sweeps=2",
                         "--set", "numerics.picard.fail_tol=1e-12")
     assert code == RunExit.STEP_FAILURE
     assert "step 1 at t = 0 s" in err and "Picard" in err and len(err.strip().splitlines()) == 1
