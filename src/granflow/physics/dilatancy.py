@@ -19,7 +19,6 @@ import numpy as np
 
 from enum import Enum
 
-
 from granflow.errors import GranflowInputError
 
 
