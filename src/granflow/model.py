@@ -451,6 +451,7 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
         state.accel, state.accel_dt = (im.u - state.vel) / dt, dt  # the "extrapolated" predictor's a^n
         state.vel = im.u
         state.p = im.p.reshape(self.grid.cell_shape)
+        state.free = im.free.reshape(self.grid.cell_shape)  # one solve per step carries its interior
         state.t += dt
         state.step += 1
         b = tr.bounds

@@ -17,6 +17,10 @@ field      shape                       meaning
                                        predictor ``"extrapolated"``); None before the first
                                        step and after a restart from a checkpoint without it
 ``accel_dt`` scalar or None            that step's length ``dt_(n-1)`` [s]
+``free``   ``(nx, nz)`` bool or None   the active set's free cells at the end of the last
+                                       accepted step (one solve per step carries their
+                                       interior, :mod:`granflow.active_set`); None before the
+                                       first step and after a restart from a checkpoint without it
 ``t``      scalar                      time [s]
 ``step``   scalar                      number of accepted steps
 =========  ==========================  ==========================================================
@@ -33,7 +37,7 @@ import numpy as np
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 
-OPTIONAL_FIELDS = ("c", "accel")
+OPTIONAL_FIELDS = ("c", "accel", "free")
 """Array fields that may be None (checked only when present)."""
 
 
@@ -74,6 +78,10 @@ class State:
     accel_dt : float, optional
         Length [s] of the step over which ``accel`` was measured (the predictor extrapolates
         over at most this long). None before the first step.
+    free : ndarray of bool, (nx, nz), optional
+        Free cells of the active set at the end of the last accepted step (set by
+        :meth:`granflow.model.Model.advance`; read by :func:`granflow.active_set.carried_free`).
+        None before the first step.
     """
 
     phi: np.ndarray
@@ -85,6 +93,7 @@ class State:
     c: np.ndarray | None = None
     accel: np.ndarray | None = None
     accel_dt: float | None = None
+    free: np.ndarray | None = None
 
     @classmethod
     def at_rest(cls, grid: Grid, phi, p=0.0, p_f=0.0, t: float = 0.0, c=None) -> State:
@@ -125,7 +134,7 @@ class State:
         """Raise :class:`GranflowInputError` if a field does not fit ``grid``."""
         for name, shape in (("phi", grid.cell_shape), ("p", grid.cell_shape),
                             ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,)), ("c", grid.cell_shape),
-                            ("accel", (grid.n_unknowns,))):
+                            ("accel", (grid.n_unknowns,)), ("free", grid.cell_shape)):
             a = getattr(self, name)
             if name in OPTIONAL_FIELDS and a is None:
                 continue
@@ -138,7 +147,8 @@ class State:
         return State(phi=self.phi.copy(), vel=self.vel.copy(), p=self.p.copy(),
                      p_f=self.p_f.copy(), t=self.t, step=self.step,
                      c=None if self.c is None else self.c.copy(),
-                     accel=None if self.accel is None else self.accel.copy(), accel_dt=self.accel_dt)
+                     accel=None if self.accel is None else self.accel.copy(), accel_dt=self.accel_dt,
+                     free=None if self.free is None else self.free.copy())
 
     def restore(self, other: State) -> None:
         """Overwrite this state, in place, with a copy of ``other`` (undo a rejected step)."""
@@ -149,6 +159,7 @@ class State:
         self.c = None if other.c is None else other.c.copy()
         self.accel = None if other.accel is None else other.accel.copy()
         self.accel_dt = other.accel_dt
+        self.free = None if other.free is None else other.free.copy()
         self.t = other.t
         self.step = other.step
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse.linalg as spla
 
+from granflow.active_set import start_free
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
 from granflow.model_options import BaseFriction, Predictor
@@ -341,16 +342,6 @@ def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
     return ex.strain(u_k)
 
 
-def initial_free(ex: Explicit, dense) -> tuple[np.ndarray, np.ndarray | None]:
-    """The active set's start: every dense cell is active (p < 0 frees it) but the thin cells of
-    the indicator surface and a source's cells, which never get a row (the second mask; None if
-    there are none)."""
-    fixed = ex.thin
-    if ex.source is not None:
-        fixed = ex.source.cells & dense if fixed is None else fixed | (ex.source.cells & dense)
-    return (np.zeros_like(dense) if fixed is None else fixed.copy()), fixed
-
-
 def first_iterate(model, state, dt: float) -> np.ndarray:
     """The Picard loop's first velocity iterate [m s^-1] (:class:`granflow.model_options.Predictor`):
     ``u^n``, or ``u^n + min(dt, dt_(n-1)) a^n`` with the last step's mean acceleration
@@ -373,7 +364,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     u_k = first_iterate(model, state, dt)  # (sweep 1 keeps u^n's fluxes ex.fluxes_n: docs/solver.md)
     p_k = np.maximum(state.p.ravel(), 0.0)
     p_f_new = state.p_f.ravel()
-    free, fixed_free = initial_free(ex, dense)
+    free, fixed_free = start_free(model, state, ex, dense)  # (one solve per step carries the interior's)
     if model.linear_solver is not None:
         model.linear_solver.begin_step()
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz

@@ -168,19 +168,20 @@ def _arrays(path: Path) -> dict[str, bytes]:
     return {k: v.tobytes() for k, v in arrays.items()}
 
 
-@pytest.mark.parametrize("predictor", ["previous", "extrapolated"])
-def test_restart_is_bit_identical(tmp_path, capsys, predictor):
+@pytest.mark.parametrize("predictor, sweeps", [("previous", 10), ("extrapolated", 10), ("extrapolated", 1)])
+def test_restart_is_bit_identical(tmp_path, capsys, predictor, sweeps):
     """2N steps in one go versus N steps + restart from the step-N checkpoint + N steps (with the
-    "extrapolated" Picard predictor the restart needs the checkpoint's state.accel)."""
+    "extrapolated" Picard predictor the restart needs the checkpoint's state.accel; with one solve
+    per step its state.free, granflow.active_set)."""
     a, b = tmp_path / "a", tmp_path / "b"
-    pred = ["--set", f'numerics.picard.predictor="{predictor}"']
+    pred = ["--set", f'numerics.picard.predictor="{predictor}"', "--set", f"numerics.picard.max_sweeps={sweeps}"]
     ckpt = ["--set", f"output.checkpoint_interval={N}", "--set", "output.checkpoint_keep=10", *pred]
     assert tiny(capsys, a, 2 * N * 1e-3, *ckpt)[0] == RunExit.COMPLETED
     code, _, err = tiny(capsys, b, 2 * N * 1e-3, *pred, "--restart", a / "checkpoints" / f"checkpoint_{N:08d}.npz")
     assert code == RunExit.COMPLETED, err
     final_a = _arrays(a / "checkpoints" / f"checkpoint_{2 * N:08d}.npz")
     final_b = _arrays(b / "checkpoints" / f"checkpoint_{2 * N:08d}.npz")
-    assert final_a.keys() == final_b.keys() and {"state.phi", "state.accel"} <= final_a.keys()
+    assert final_a.keys() == final_b.keys() and {"state.phi", "state.accel", "state.free"} <= final_a.keys()
     for key in final_a:
         assert final_a[key] == final_b[key], key
     with netCDF4.Dataset(a / "output.nc") as da, netCDF4.Dataset(b / "output.nc") as db:

@@ -28,8 +28,9 @@ def front_time(ratio: float, H0: float) -> float:
     return H0 * (PHI0 / balance_root(ratio) - 1) / ((ratio - 1) * u_mf)
 
 
-def bed(ratio: float, H0: float, nz: int, max_time: float) -> CaseConfig:
-    """A reservoir 2 cells wide, the box 1.5 H0 tall (nz cells), linear gas, DP closure."""
+def bed(ratio: float, H0: float, nz: int, max_time: float, picard: dict | None = None) -> CaseConfig:
+    """A reservoir 2 cells wide, the box 1.5 H0 tall (nz cells), linear gas, DP closure;
+    ``picard``: the ``numerics.picard`` section (default: none)."""
     Lz = 1.5 * H0
     dz = Lz / nz
     return CaseConfig.from_dict({
@@ -38,12 +39,13 @@ def bed(ratio: float, H0: float, nz: int, max_time: float) -> CaseConfig:
                   "prep_max_time": max_time},
         "material": {"d": D, "rho_s": RHO_S, "eta_f": ETA_F, "phi_max": PHI0},
         "closure": {"name": "drucker_prager", "delta_deg": 26.74}, "gas": {"law": "linear"},
-        "grid": {"nx": 4, "nz": nz, "Lx": 4 * dz, "Lz": Lz}, "time": {"stop_time": 0.003, "dt_max": 2e-3}})
+        "grid": {"nx": 4, "nz": nz, "Lx": 4 * dz, "Lz": Lz}, "time": {"stop_time": 0.003, "dt_max": 2e-3},
+        **({"numerics": {"picard": picard}} if picard else {})})
 
 
-def check_steady_expansion(ratio: float, H0: float, nz: int, tol: float) -> dict:
+def check_steady_expansion(ratio: float, H0: float, nz: int, tol: float, picard: dict | None = None) -> dict:
     t_s = front_time(ratio, H0)
-    result = prep.prepare(bed(ratio, H0, nz, max_time=3 * t_s))
+    result = prep.prepare(bed(ratio, H0, nz, max_time=3 * t_s, picard=picard))
     d = result.diagnostics()
     phi_e = balance_root(ratio)
     print(f"\nU/U_mf = {ratio}: steady = {d['prep_steady']} at t = {d['prep_time_s']:.3f} s "
@@ -63,6 +65,28 @@ def test_steady_injected_bed_matches_the_homogeneous_expansion_at_1_3_u_mf():
     """1 cm bed, 8 cells over it (12 in the box), U = 1.3 U_mf: steady at 0.397 s (front 0.361 s),
     phi 0.56822 against 0.57067 (-0.43 %); tolerance 1 % (issue 13). ~6 s."""
     check_steady_expansion(1.3, H0=0.01, nz=12, tol=1e-2)
+
+
+ONE_SOLVE = {"max_sweeps": 1, "predictor": "extrapolated"}
+
+
+def test_one_solve_per_step_expands_the_bed_at_1_1_u_mf():
+    """One solve per step (docs/solver.md) carries the interior free cells from step to step
+    (granflow.active_set): the bed the gas barely lifts expands to the law as the Picard loop does.
+    1 cm bed, 8 cells over it, U = 1.1 U_mf; tolerance 1 % (issue 13)."""
+    check_steady_expansion(1.1, H0=0.01, nz=12, tol=1e-2, picard=ONE_SOLVE)
+
+
+def test_without_the_carried_free_set_one_solve_keeps_the_bed_packed(monkeypatch):
+    """The control: with every dense cell active at each step's start (carried_free disabled), the
+    single solve puts the gas-lifted bed in tension (p < 0) every step and it never expands."""
+    import granflow.active_set
+
+    monkeypatch.setattr(granflow.active_set, "carried_free", lambda *args: None)
+    t_s = front_time(1.1, 0.01)
+    d = prep.prepare(bed(1.1, 0.01, 12, max_time=0.5 * t_s, picard=ONE_SOLVE)).diagnostics()
+    assert d["prep_phi_mean"] == pytest.approx(PHI0, abs=1e-6)
+    assert d["prep_phi_mean"] > balance_root(1.1) * 1.01
 
 
 def test_rising_bed_is_not_declared_steady():

@@ -142,7 +142,7 @@ def check_state(path: Path, arrays: dict[str, np.ndarray], scalars: dict[str, An
     for name, a in arrays.items():
         if not name.startswith(STATE_PREFIX):
             continue
-        if a.dtype.kind not in "fiu":
+        if a.dtype.kind not in ("b" if name == f"{STATE_PREFIX}free" else "fiu"):  # free: a mask
             raise GranflowInputError(f"{where}: {name} has dtype {a.dtype}, not a number")
         bad = ~np.isfinite(a)
         if np.any(bad):
