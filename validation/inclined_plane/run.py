@@ -160,9 +160,10 @@ def run(resolution: int, quick: bool = False, c_I: float = 2.0, theta_deg: float
     }
 
 
-def from_rest(resolution: int, theta_deg: float, beta: float, t_end: float = T_END) -> dict:
+def from_rest(resolution: int, theta_deg: float, beta: float, t_end: float = T_END, cfl: float | None = None) -> dict:
     """The ``inclined_layer`` case released from rest at phi_max with the default numerics (no
-    numerics section; ``resolution`` cells over h0, a box REST_HEADROOM h0 high), like
+    numerics section; ``resolution`` cells over h0, a box REST_HEADROOM h0 high; ``cfl``: a
+    ``time.cfl`` other than the default), like
     examples/inclined_layer_from_rest.toml. Keys: ``err_us`` (u_s at t_end against Bagnold's at
     the steady thickness), ``drift`` (over the last STEADY_WINDOW s), ``dphi`` (median phi/c of
     the layer - phi_eq), ``steps``, ``wall`` [s]."""
@@ -177,7 +178,8 @@ def from_rest(resolution: int, theta_deg: float, beta: float, t_end: float = T_E
             "closure": {"name": "mu_i", "mu1": MU1, "mu2": MU2, "I0": I0},
             "gravity": {"slope_deg": theta_deg, "g": G},
             "grid": {"periodic_x": True, "nx": NX, "nz": nz, "Lx": LX, "Lz": H0 * nz / resolution},
-            "time": {"stop_time": t_end, "dt_max": DT_MAX}, "output": {"figures": False}}
+            "time": {"stop_time": t_end, "dt_max": DT_MAX, **({"cfl": cfl} if cfl else {})},
+            "output": {"figures": False}}
     if beta:
         data["gas"] = {"law": "linear"}
     cfg = CaseConfig.from_dict(data)
