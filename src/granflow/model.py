@@ -101,6 +101,7 @@ from granflow.model_options import (  # re-exported: the Model's options and ste
     Coefficients,
     LinearSolverChoice,
     PicardParams,
+    Predictor,
     StepReport,
     StepStatus,
     Surface,
@@ -450,10 +451,12 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
         state.phi = tr.phi
         if tr.c is not None:
             state.c = tr.c
-        state.accel, state.accel_dt = (im.u - state.vel) / dt, dt  # the "extrapolated" predictor's a^n
+        if self.picard.predictor == Predictor.EXTRAPOLATED:  # its a^n, and a^(n-1) for its limiter
+            state.accel_prev, state.accel, state.accel_dt = state.accel, (im.u - state.vel) / dt, dt
         state.vel = im.u
         state.p = im.p.reshape(self.grid.cell_shape)
-        state.free = im.free.reshape(self.grid.cell_shape)  # one solve per step carries its interior
+        if self.picard.max_sweeps == 1:  # one solve per step carries its interior (active_set)
+            state.free = im.free.reshape(self.grid.cell_shape)
         state.t += dt
         state.step += 1
         b = tr.bounds

@@ -171,10 +171,12 @@ class Predictor(str, Enum):
     """``u^n``: the closure, the strain rate and the momentum fluxes of the first sweep are
     those of the last step (lagged by one step: an O(dt) error in the coefficients)."""
     EXTRAPOLATED = "extrapolated"
-    """``u^n + min(dt, dt_{n-1}) a^n`` with ``a^n = (u^n - u^{n-1}) / dt_{n-1}`` the last step's
-    mean acceleration (:attr:`granflow.state.State.accel`): the coefficients of the first sweep
-    are O(dt^2) from those of ``u^{n+1}`` where the flow is smooth in time. ``u^n`` at the
-    first step and after a restart from a checkpoint without ``state.accel``."""
+    """``u^n + min(dt, dt_{n-1}) minmod(a^n, a^{n-1})`` with ``a^n = (u^n - u^{n-1}) / dt_{n-1}``
+    the last step's mean acceleration (:attr:`granflow.state.State.accel`, ``accel_prev`` the
+    one before; :func:`granflow.predictor.first_iterate`): the coefficients of the first sweep
+    are O(dt^2) from those of ``u^{n+1}`` where the flow is smooth in time, and an oscillation
+    from step to step is not extrapolated. ``u^n`` at the first step and after a restart from a
+    checkpoint without ``state.accel``."""
 
 
 class PicardParams(Params):
@@ -204,7 +206,7 @@ class PicardParams(Params):
     fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
     predictor: Literal[tuple(p.value for p in Predictor)] = Field(  # type: ignore[valid-type]
         Predictor.PREVIOUS.value, description='first iterate: "previous" (u^n) or "extrapolated" '
-        "(u^n + min(dt, dt_(n-1)) (u^n - u^(n-1)) / dt_(n-1)) [-]")
+        "(u^n + min(dt, dt_(n-1)) minmod(a^n, a^(n-1)), a^n = (u^n - u^(n-1)) / dt_(n-1)) [-]")
 
 
 class StepStatus(str, Enum):

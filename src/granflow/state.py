@@ -17,6 +17,7 @@ field      shape                       meaning
                                        predictor ``"extrapolated"``); None before the first
                                        step and after a restart from a checkpoint without it
 ``accel_dt`` scalar or None            that step's length ``dt_(n-1)`` [s]
+``accel_prev`` as ``accel``               the same of the step before (the predictor's limiter)
 ``free``   ``(nx, nz)`` bool or None   the active set's free cells at the end of the last
                                        accepted step (one solve per step carries their
                                        interior, :mod:`granflow.active_set`); None before the
@@ -37,7 +38,7 @@ import numpy as np
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid
 
-OPTIONAL_FIELDS = ("c", "accel", "free")
+OPTIONAL_FIELDS = ("c", "accel", "accel_prev", "free")
 """Array fields that may be None (checked only when present)."""
 
 
@@ -78,6 +79,9 @@ class State:
     accel_dt : float, optional
         Length [s] of the step over which ``accel`` was measured (the predictor extrapolates
         over at most this long). None before the first step.
+    accel_prev : ndarray, (n_unknowns,), optional
+        ``accel`` of the step before the last [m s^-2] (the predictor limits the extrapolation
+        with it, :func:`granflow.step.first_iterate`). None before the second step.
     free : ndarray of bool, (nx, nz), optional
         Free cells of the active set at the end of the last accepted step (set by
         :meth:`granflow.model.Model.advance`; read by :func:`granflow.active_set.carried_free`).
@@ -93,6 +97,7 @@ class State:
     c: np.ndarray | None = None
     accel: np.ndarray | None = None
     accel_dt: float | None = None
+    accel_prev: np.ndarray | None = None
     free: np.ndarray | None = None
 
     @classmethod
@@ -134,7 +139,8 @@ class State:
         """Raise :class:`GranflowInputError` if a field does not fit ``grid``."""
         for name, shape in (("phi", grid.cell_shape), ("p", grid.cell_shape),
                             ("p_f", grid.cell_shape), ("vel", (grid.n_unknowns,)), ("c", grid.cell_shape),
-                            ("accel", (grid.n_unknowns,)), ("free", grid.cell_shape)):
+                            ("accel", (grid.n_unknowns,)), ("accel_prev", (grid.n_unknowns,)),
+                            ("free", grid.cell_shape)):
             a = getattr(self, name)
             if name in OPTIONAL_FIELDS and a is None:
                 continue
@@ -148,6 +154,7 @@ class State:
                      p_f=self.p_f.copy(), t=self.t, step=self.step,
                      c=None if self.c is None else self.c.copy(),
                      accel=None if self.accel is None else self.accel.copy(), accel_dt=self.accel_dt,
+                     accel_prev=None if self.accel_prev is None else self.accel_prev.copy(),
                      free=None if self.free is None else self.free.copy())
 
     def restore(self, other: State) -> None:
@@ -159,6 +166,7 @@ class State:
         self.c = None if other.c is None else other.c.copy()
         self.accel = None if other.accel is None else other.accel.copy()
         self.accel_dt = other.accel_dt
+        self.accel_prev = None if other.accel_prev is None else other.accel_prev.copy()
         self.free = None if other.free is None else other.free.copy()
         self.t = other.t
         self.step = other.step
@@ -166,6 +174,6 @@ class State:
     def is_finite(self) -> bool:
         """True if every field is finite (the default NaN check of the Simulation)."""
         fields = (self.phi, self.vel, self.p, self.p_f) + tuple(
-            a for a in (self.c, self.accel) if a is not None)
+            a for a in (self.c, self.accel, self.accel_prev) if a is not None)
         return bool(all(np.all(np.isfinite(a)) for a in fields)
                     and np.isfinite(self.t))

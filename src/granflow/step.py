@@ -25,13 +25,14 @@ import scipy.sparse.linalg as spla
 from granflow.active_set import start_free
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
-from granflow.model_options import BaseFriction, Predictor
+from granflow.model_options import BaseFriction
 from granflow.physics import inflow
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics import wall_friction as wf
 from granflow.physics.material import C_ROW, material_window, packing
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
+from granflow.predictor import first_iterate
 from granflow.solvers import SaddleHints
 from granflow.step_energy import energy_terms  # noqa: F401  (stage 3, re-exported)
 
@@ -340,20 +341,6 @@ def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
     if model.wall_friction is not None:
         return wf.strain_rate_norm(model, u_k, share)
     return ex.strain(u_k)
-
-
-def first_iterate(model, state, dt: float) -> np.ndarray:
-    """The Picard loop's first velocity iterate [m s^-1] (:class:`granflow.model_options.Predictor`):
-    ``u^n``, or ``u^n + min(dt, dt_(n-1)) a^n`` with the last step's mean acceleration
-    ``a^n = state.accel`` (a linear extrapolation in time from ``u^(n-1)`` and ``u^n``, never
-    further than the last step's own change; ``u^n`` without it). The cap: a short step (to land
-    on an output time) followed by a long one extrapolated a jump of the surface cells 7x and kept
-    the 25 deg fluidised chute of validation/inclined_plane from settling with one solve per step
-    (u_s drift 3.5e-3 over 2 s; capped 4e-6, as iterated)."""
-    if model.picard.predictor == Predictor.EXTRAPOLATED and state.accel is not None:
-        reach = dt if state.accel_dt is None else min(dt, state.accel_dt)
-        return state.vel + reach * state.accel
-    return state.vel.copy()
 
 
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:

@@ -23,7 +23,7 @@ from _scripts import ROOT  # the repository (tests/ holds tiers)
 
 SRC = ROOT / "src" / "granflow"
 CORE = ("grid", "operators", "topography", "axisymmetric", "solvers", "physics", "rheology", "model", "model_geometry",
-        "state", "step", "step_energy", "step_retry", "simulation",
+        "state", "step", "step_energy", "step_retry", "simulation", "active_set", "predictor",
         "schedules")
 TOP = ("cases", "casekit", "cli", "plotting", "closure_figures", "case_figures", "sweep", "sweep_spec", "sweep_files")
 MAX_FUNCTION_LINES = 80
