@@ -121,7 +121,7 @@ from granflow.physics.material import packing
 from granflow.physics.pore_pressure import GasLaw
 from granflow.physics.transport import PhiScheme
 from granflow.rheology.base import Closure
-from granflow.solvers import make_linear_solver, pardiso_available
+from granflow.solvers import pardiso_available
 from granflow.state import State
 
 
@@ -332,9 +332,7 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
                               else self.ambient.velocity_band)
         """The velocity band in use [cells] (:attr:`AmbientParams.velocity_band`; None: off, or the AMG)."""
         self._face_cells = abs(self.ops.cell_to_face).tocsr()
-        self.linear_solver = (None if choice is LinearSolverChoice.DIRECT
-                              else make_linear_solver(choice.value) if choice is LinearSolverChoice.PARDISO
-                              else make_linear_solver(choice.value, grid=grid))
+        self.linear_solver = self._make_linear_solver(choice)
         self.gas_coupling = self._gas_coupling(gas, open_top, U_inj, gas_compressibility)
         self.gas = None if self.gas_coupling is None else self.gas_coupling.gas
         self.source = self._source(source)

@@ -13,7 +13,14 @@ import numpy as np
 from scipy.ndimage import maximum_filter
 
 from granflow.errors import GranflowInputError
-from granflow.model_options import INTERFACE_RADIUS, PHI_FLOOR, PHI_TRACE, Surface
+from granflow.model_options import (
+    ANALYSIS_STEPS,
+    INTERFACE_RADIUS,
+    PHI_FLOOR,
+    PHI_TRACE,
+    LinearSolverChoice,
+    Surface,
+)
 from granflow.physics import momentum as mom
 from granflow.physics.material import (
     C_MIN,
@@ -28,6 +35,7 @@ from granflow.physics.material import (
 )
 from granflow.physics.pore_pressure import cell_permeability, face_permeability
 from granflow.physics.transport import advect
+from granflow.solvers import make_linear_solver
 from granflow.state import State
 
 
@@ -146,13 +154,41 @@ class FieldMaps:
             cells |= np.asarray(c, dtype=float).reshape(self.grid.cell_shape) > C_MIN
         return cells
 
-    def velocity_region(self, phi) -> np.ndarray | None:
+    region_cache: tuple | None = None
+    """The velocity region and pressure cells kept across steps (:func:`granflow.step.step_region`)."""
+
+    def _make_linear_solver(self, choice: LinearSolverChoice):
+        """The model's linear solver (None: SciPy's direct solve): PARDISO keeps its analysis
+        :data:`ANALYSIS_STEPS` steps with a velocity band margin (:func:`granflow.step.step_region`)."""
+        if choice is LinearSolverChoice.DIRECT:
+            return None
+        if choice is LinearSolverChoice.PARDISO:
+            return make_linear_solver(choice.value, analysis_steps=ANALYSIS_STEPS
+                                      if self.ambient.velocity_band_margin else 1)
+        return make_linear_solver(choice.value, grid=self.grid)
+
+    def forget_caches(self) -> None:
+        """Drop what is kept from step to step besides the state: the region of
+        :func:`granflow.step.step_region` and the linear solver's kept set-up
+        (:meth:`granflow.solvers.linear.LinearSolver.forget`). Called when a checkpoint is taken,
+        so that a restart from it and the continued run take the next step alike."""
+        self.region_cache = None
+        if self.linear_solver is not None:
+            self.linear_solver.forget()
+
+    def grain_cells(self, phi, margin: int) -> np.ndarray:
+        """Flat mask of the cells within ``margin`` cells of grains (``phi > PHI_TRACE phi_max``)."""
+        grains = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape) > PHI_TRACE * self.material.phi_max
+        mode = ("wrap", "constant") if self.grid.periodic_x else "constant"
+        return maximum_filter(grains, size=2 * margin + 1, mode=mode).ravel()
+
+    def velocity_region(self, phi, band: int | None = None) -> np.ndarray | None:
         """Flat mask (n_unknowns,) of the velocity unknowns solved in a step from ``phi``: the
-        faces of the cells within :attr:`velocity_band` cells of grains
+        faces of the cells within ``band`` (default :attr:`velocity_band`) cells of grains
         (``phi > PHI_TRACE phi_max``, :attr:`AmbientParams.velocity_band`); None = all of them
         (no band, or no grains). With a topography, only open faces (between two fluid cells,
         :mod:`granflow.topography`) are kept, band or not: the others are ``u = 0``."""
-        r, open_faces = self.velocity_band, self.ops.open_faces
+        r, open_faces = self.velocity_band if band is None else band, self.ops.open_faces
         if r is None:
             return None if open_faces is None else open_faces
         grains = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape) > PHI_TRACE * self.material.phi_max

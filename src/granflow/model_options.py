@@ -42,6 +42,12 @@ drags on the surface (viscous stress ~ eta_a u / (band dx)); measured on the Lag
 (0.05 H0 front), band 6 -0.6 % / -0.45 %, band 10 -0.16 % / -0.2 %; the a = 1.42 run at 32^2
 moved 5 % with band 3 and not with 6 or 10. Cost at 128^2: 11.4 s (3), 11.5 s (6), 12.4 s (10);
 at 256^2 39.8 s (3), 49.1 s (10) (benchmarks/README.md)."""
+ANALYSIS_STEPS = 4
+"""Steps over which PARDISO keeps an analysis (ordering, scaling, matching) of an unchanged pattern
+when :attr:`AmbientParams.velocity_band_margin` > 0. Its scaling and matching are those of the
+matrix it analysed: kept longer, the factorisation and the solve grow (measured on the Lagree column,
+256^2, one solve per step, margin 3: every 1 / 2 / 4 / 8 steps 31.0 / 27.0 / 23.0 / 25.0 s;
+docs/solver.md "Keeping the pattern")."""
 PHI_TRACE = 1.0e-6
 """Cells with ``phi > PHI_TRACE phi_max`` hold grains for the velocity band
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
@@ -133,6 +139,14 @@ class AmbientParams(Params):
         benchmarks/README.md). Default :data:`DEFAULT_VELOCITY_BAND`; 0 solves everywhere
         (the scheme before issue 6); else at least :data:`MIN_VELOCITY_BAND`. Not applied with ``linear_solver = "amg"`` (its block AMG
         works on the whole grid).
+    velocity_band_margin : int
+        With a margin ``m > 0`` the velocity unknowns are those of a band ``velocity_band + m``
+        cells wide, and the pressure unknowns every dense cell or cell within ``m`` cells of
+        grains, both kept from step to step while the ``velocity_band`` band and the dense cells
+        stay inside them (:func:`granflow.step.step_region`); with ``linear_solver`` PARDISO the
+        matrix pattern then stays the same over those steps and its analysis is kept for up to
+        :data:`ANALYSIS_STEPS` steps (:class:`granflow.solvers.pardiso.PardisoSolver`). Default
+        0: both rebuilt at every step (docs/solver.md "Keeping the pattern").
     """
 
     phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")
@@ -143,6 +157,10 @@ class AmbientParams(Params):
     velocity_band: int = Field(DEFAULT_VELOCITY_BAND, ge=0, le=MAX_VELOCITY_BAND, description="solve the velocity only "
                                "within this many cells of the grains, u = 0 beyond; 0 = everywhere, "
                                f"else >= {MIN_VELOCITY_BAND} [cells]")
+
+    velocity_band_margin: int = Field(0, ge=0, le=MAX_VELOCITY_BAND, description="keep the velocity band "
+                                      "and the pressure unknowns across steps, built this many cells wider; "
+                                      "0 = rebuilt every step [cells]")
 
     @field_validator("velocity_band")
     @classmethod

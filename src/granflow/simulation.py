@@ -416,16 +416,16 @@ class Simulation:
                                    *self.checkpointers.items()])
 
     def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """``(arrays, scalars)`` with everything a bit-identical restart needs.
-
-        Arrays: ``state.<phi|vel|p|p_f>`` (``c``, ``accel`` if set), the array fields of the budget
-        (``budget.rho_f``). Scalars: ``state.t``, ``state.step`` (``accel_dt`` if set), the other
-        budget fields, :class:`RunTotals`, the next due time of every :class:`TimeInterval` schedule
-        (``schedule.<name>``), which decides future time steps. Then what the scheduled entries with
-        a ``checkpoint_payload(simulation)`` method add (e.g. a :class:`granflow.output.recorders.
-        FrontRecorder`'s front history). :func:`granflow.output.checkpoint.save_checkpoint` saves them.
-        """
+        """``(arrays, scalars)`` with everything a bit-identical restart needs; the model's caches
+        kept across steps are dropped (:meth:`granflow.model.Model.forget_caches`). Arrays:
+        ``state.<phi|vel|p|p_f>`` (``c``, ``accel``, ``accel_prev``, ``free`` if set), the budget's
+        arrays (``budget.rho_f``). Scalars: ``state.t``, ``state.step`` (``accel_dt`` if set), the
+        other budget fields, :class:`RunTotals`, the next due time of every :class:`TimeInterval`
+        schedule (``schedule.<name>``). Then what the scheduled entries with a
+        ``checkpoint_payload(simulation)`` method add (e.g. a :class:`granflow.output.recorders.
+        FrontRecorder`'s front history); :func:`granflow.output.checkpoint.save_checkpoint` saves them."""
         st, b = self.state, self.budget
+        getattr(self.model, "forget_caches", lambda: None)()
         arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS + OPTIONAL_FIELDS
                   if getattr(st, k) is not None}
         scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected,

@@ -138,6 +138,9 @@ class Explicit:
     closure is evaluated (set by :func:`explicit_stage`)."""
     source: object = None
     """:class:`granflow.physics.inflow.SourceTerms` of a source that is on, else None."""
+    pressure_cells: np.ndarray | None = None
+    """Cells whose p is an unknown with PARDISO's stable pattern (:func:`step_region`; None: the
+    dense cells)."""
 
 
 def band_edge(ops, keep) -> tuple:
@@ -226,15 +229,40 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
         if gas_sys.n_wet:
             border = gas_sys.border(model.material.p_atm)
             rhs_gas = [gas_sys.scaled_rhs(model.material.p_atm)]
-    keep = model.velocity_region(phi)
-    region = None if keep is None else model.assembler.region(keep)
-    edge = None if keep is None or not model.indicator else band_edge(model.strain_stencils, keep)
+    keep, region, edge, pressure_cells = step_region(model, phi, dense)
     tim["assembly"] += time.perf_counter() - t0
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
                     band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.strain_rate_on(dense),
-                    source=source)
+                    source=source, pressure_cells=pressure_cells)
+
+
+def step_region(model, phi, dense) -> tuple:
+    """``(keep, region, band edge, pressure cells)`` of a step: the velocity unknowns
+    (:meth:`granflow.model.Model.velocity_region`), their assembly gathers, the stress-free band
+    edge (:func:`band_edge`, indicator surface) and the cells whose p is an unknown (None: the
+    dense cells). With ``numerics.ambient.velocity_band_margin = m > 0`` they are built ``m``
+    cells wider (the pressure cells: the dense ones and every cell within ``m`` cells of grains)
+    and kept on the model (``model.region_cache``) for the next steps while the band of
+    ``velocity_band`` cells and the dense cells stay inside them, so that the saddle system keeps
+    its pattern (and PARDISO its analysis); :meth:`granflow.model.Model.forget_caches` drops them."""
+    keep = model.velocity_region(phi)
+    margin = model.ambient.velocity_band_margin
+    if keep is None or not margin or model.velocity_band is None:
+        region = None if keep is None else model.assembler.region(keep)
+        edge = None if keep is None or not model.indicator else band_edge(model.strain_stencils, keep)
+        return keep, region, edge, None
+    cache = model.region_cache
+    if cache is None or np.any(keep & ~cache[0]) or np.any(dense & ~cache[3]):
+        wide = model.velocity_region(phi, band=model.velocity_band + margin)
+        if wide is None:  # the wider band covers the grid: solve everywhere, nothing to keep
+            return None, None, None, None
+        near = model.grain_cells(phi, margin)
+        cache = model.region_cache = (wide, model.assembler.region(wide),
+                                      None if not model.indicator else band_edge(model.strain_stencils, wide),
+                                      near | np.asarray(dense, dtype=bool))
+    return cache
 
 
 def hint_viscosity(model, eta) -> np.ndarray:
@@ -384,8 +412,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         mass = model.on_unknowns(rho_k / dt + ex.drag)  # the rows' volume weights (model_geometry)
         a_data = model.assembler.velocity_data(mass, eta_c, eta_n, ex.region)
         act = dense & ~free
-        layout = SaddleLayout(g.n_unknowns, g.n_cells, ex.keep,
-                              dense if model._stable_pattern else act)
+        layout = SaddleLayout(g.n_unknowns, g.n_cells, ex.keep, act if not model._stable_pattern
+                              else dense if ex.pressure_cells is None else ex.pressure_cells)
         K = model.assembler.saddle(a_data, act, model.on_cells(coef.C), ex.border, unknowns=layout.pressure,
                                    velocity=ex.region)
         rhs = np.concatenate([layout.kept(model.on_unknowns(rhs_u)),

@@ -37,11 +37,11 @@ LU_AGREEMENT = 1e-9
 STEP_AGREEMENT = 1e-8
 
 
-def column(linear_solver: str, nx: int = 24, nz: int = 10) -> tuple[Model, State]:
+def column(linear_solver: str, nx: int = 24, nz: int = 10, ambient: dict | None = None) -> tuple[Model, State]:
     """A 10 cm DP column on the left of a 0.3 x 0.125 m box."""
     g = Grid(nx=nx, nz=nz, Lx=0.3, Lz=0.125)
     clo = make_closure("drucker_prager", material=MATERIAL, delta_deg=26.74)
-    model = Model(g, clo, linear_solver=linear_solver)
+    model = Model(g, clo, linear_solver=linear_solver, ambient=ambient)
     xc, zc = np.meshgrid(g.xc, g.zc, indexing="ij")
     phi = np.where((xc < 0.1) & (zc < 0.1), PHI_MAX, 0.0)
     return model, model.initial_state(phi)
@@ -392,3 +392,67 @@ def test_thread_setting_is_restored_for_the_enclosing_call(systems):
         local(before)
     x, _ = outer.solve(K, b)
     assert rel(x, spla.spsolve(sp.csc_matrix(K), b)) < LU_AGREEMENT
+
+
+def test_analysis_window_keeps_an_unchanged_pattern_for_analysis_steps_steps(systems):
+    """``analysis_steps = 3``: of the same pattern over five steps, analyses at steps 1 and 4 (the
+    window counts from the analysis); ``forget`` (a checkpoint) ends it; the solutions agree with a
+    fresh analysis to the solver's accuracy."""
+    K, b = systems[0]
+    kept, fresh = make_linear_solver("pardiso", analysis_steps=3), make_linear_solver("pardiso")
+    for step in range(5):
+        for s in (kept, fresh):
+            s.begin_step()
+        x_kept, _ = kept.solve(K * (1.0 + 0.1 * step), b)
+        x_fresh, _ = fresh.solve(K * (1.0 + 0.1 * step), b)
+        assert rel(x_kept, x_fresh) < LU_AGREEMENT
+    assert (kept.analyses, kept.factorisations) == (2, 5) and fresh.analyses == 5
+    kept.forget()
+    kept.solve(K, b)
+    assert kept.analyses == 3
+
+
+def test_kept_analysis_is_redone_before_superlu_when_its_residual_is_too_large(systems, monkeypatch):
+    """A solve with a kept analysis whose residual exceeds RESIDUAL_LIMIT is redone with a fresh
+    analysis (``reanalyses``); SuperLU only if that fails too."""
+    K, b = systems[-1]
+    solver = make_linear_solver("pardiso", analysis_steps=10)
+    solver.begin_step()
+    solver.solve(K, b)
+    real_call, calls = solver._call, {"n": 0}
+
+    def noisy_once(phase, A, rhs):  # the first solve phase with the kept analysis is off by 1e-6
+        x = real_call(phase, A, rhs)
+        if int(phase) == 33 and calls["n"] == 0:
+            calls["n"] += 1
+            return x * (1.0 + 1e-6)
+        return x
+
+    monkeypatch.setattr(solver, "_call", noisy_once)
+    solver.begin_step()
+    x, info = solver.solve(K * 1.5, b)
+    assert solver.reanalyses == 1 and solver.fallbacks == 0 and solver.analyses == 2
+    assert rel(x, spla.spsolve(sp.csc_matrix(K * 1.5), b)) < LU_AGREEMENT
+
+
+def test_velocity_band_margin_keeps_the_pattern_across_steps():
+    """``numerics.ambient.velocity_band_margin``: the region and pressure cells built ``m`` cells
+    wider are kept while the grains' band stays inside (fewer analyses than steps), the steps
+    agree with the margin-free model to the band's own effect, and a checkpoint
+    (``forget_caches``) drops them."""
+    from granflow.step import step_region
+
+    results = {}
+    for margin in (0, 3):
+        model, state = column("pardiso", nx=48, nz=12, ambient={"velocity_band": 3, "velocity_band_margin": margin})
+        for _ in range(8):
+            assert not model.advance(state, 2e-3).failed
+        results[margin] = (model, state)
+    (m0, s0), (m3, s3) = results[0], results[3]
+    assert m0.linear_solver.analyses == 8 and m3.linear_solver.analyses < 8
+    assert m3.region_cache is not None
+    keep, _, _, cells = step_region(m3, s3.phi, m3.dense(s3.phi, s3.c))
+    assert keep is m3.region_cache[0] and cells.sum() > m3.dense(s3.phi, s3.c).sum()
+    assert rel(s3.vel, s0.vel) < 1e-2
+    m3.forget_caches()
+    assert m3.region_cache is None

@@ -192,6 +192,10 @@ class LinearSolver:
         hierarchies across steps (rebuilding them each step would cost a set-up per step): their
         restarts agree with a continued run to the Krylov tolerance, not bit for bit."""
 
+    def forget(self) -> None:
+        """End any window over which set-up is kept across steps (``pardiso``'s
+        ``analysis_steps``); called when a checkpoint is taken. No-op by default."""
+
     def describe(self) -> dict[str, Any]:
         """Name and parameters (for reports and output metadata)."""
         return {"name": self.name, **self.params.model_dump()}

@@ -297,6 +297,13 @@ class PardisoSolver(LinearSolver):
             :data:`DEFAULT_REFINEMENT_STEPS` = 0: MKL refines (two steps) only after perturbed
             pivots; n > 0 refines up to n steps at every solve. Either way a solution whose
             relative residual exceeds :data:`RESIDUAL_LIMIT` is redone by SuperLU.
+        analysis_steps : int
+            Steps (:meth:`begin_step` calls) over which an analysis of an unchanged pattern is
+            kept. Default 1: a fresh analysis every step. With n > 1 the scaling and matching of
+            an earlier step's matrix are reused (a solve whose residual then exceeds
+            :data:`RESIDUAL_LIMIT` is first redone with a fresh analysis); :meth:`forget` ends the
+            window (a checkpoint calls it, so that a restart and the continued run agree bit for
+            bit).
         """
 
         ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
@@ -307,6 +314,8 @@ class PardisoSolver(LinearSolver):
                                            description="smaller systems run on one thread")
         refinement_steps: int = Field(DEFAULT_REFINEMENT_STEPS, ge=0, le=MAX_REFINEMENT_STEPS,
                                       description="maximum iterative refinement steps per solve")
+        analysis_steps: int = Field(1, ge=1, le=1_000_000, description="steps an analysis is kept "
+                                    "while the pattern is unchanged")
 
     def __init__(self, params: Params) -> None:
         super().__init__(params)
@@ -332,6 +341,10 @@ class PardisoSolver(LinearSolver):
         self.analyses = 0
         self.factorisations = 0
         self.fallbacks = 0
+        self._kept_steps = 0
+        """Steps begun since the analysis was last forgotten."""
+        self.reanalyses = 0
+        """Solves redone with a fresh analysis after a kept one left a residual > RESIDUAL_LIMIT."""
 
     def _set_type(self, mtype: MatrixType) -> None:
         """Matrix type and its iparm settings (the handle holds no factorisation)."""
@@ -349,12 +362,19 @@ class PardisoSolver(LinearSolver):
         return MatrixType(self._solver.mtype)
 
     def begin_step(self) -> None:
-        """Forget the analysis (the memory is kept until the next one replaces it): its scaling and
-        matching (iparm[11], iparm[13]) are computed from the values of the matrix it analysed,
-        so re-using it across steps would make a step depend on the steps before it, and a
-        restarted run differ from a continued one in the last bits."""
+        """Forget the analysis every :attr:`Parameters.analysis_steps` steps (default: every step;
+        the memory is kept until the next one replaces it): its scaling and matching (iparm[11],
+        iparm[13]) are computed from the values of the matrix it analysed, so re-using it across
+        steps makes a step depend on the steps before it (:meth:`forget` bounds that)."""
+        self._kept_steps += 1
+        if self._kept_steps >= self.params.analysis_steps:
+            self.forget()
+
+    def forget(self) -> None:
+        """Drop the analysis now: the next solve analyses afresh."""
         self._pattern = None
         self._data = None
+        self._kept_steps = 0
 
     def _call(self, phase: PardisoPhase, A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
         self._solver.set_phase(int(phase))
@@ -425,6 +445,7 @@ class PardisoSolver(LinearSolver):
             self._call(PardisoPhase.ANALYSIS, self._stored(A), np.zeros(A.shape[0]))
             self._pattern = (A.indptr.copy(), A.indices.copy())
             self.analyses += 1
+            self._kept_steps = 0  # the window counts from the analysis
             analysed = True
         M = self._stored(A)
         if not same_values:
@@ -438,6 +459,10 @@ class PardisoSolver(LinearSolver):
         if not np.all(np.isfinite(x)):
             raise LinearSolverError("pardiso: non-finite solution (singular matrix?)")
         res = relative_residual(A, x, b)
+        if not res <= RESIDUAL_LIMIT and not analysed and self.params.analysis_steps > 1:
+            self.reanalyses += 1  # a kept analysis: analyse this matrix afresh first
+            self.forget()
+            return self.solve(matrix, rhs, x0, MatrixChange.AUTO, hints)
         if not res <= RESIDUAL_LIMIT:
             x, res = self._fallback(A, b, res)
             t2 = time.perf_counter()
