@@ -81,13 +81,17 @@ VARIANTS = {
     "v2_1solve": ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated"],
     "v2_1solve_cfl04": ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated",
                         "time.cfl=0.4"],
+    "v2_1solve_cfl04_keep": ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated",
+                             "time.cfl=0.4", "numerics.ambient.velocity_band_margin=3"],
 }
 """granflow's numerics per variant (``--set`` overrides on top of the case file; ``v2`` is the
 default numerics, the others pin their options so that they keep their meaning; ``v2_cfl04``
 is v2 with the CFL number 0.4 instead of the default 0.3, which changes only CFL-bound steps:
 256^2 and finer here, benchmarks/README.md); ``v2_1solve`` is the linearly implicit step, one
 solve per step with the coefficients of the extrapolated first iterate, as Basilisk's step lags
-its viscosity by one step (docs/solver.md, "One solve per step")."""
+its viscosity by one step (docs/solver.md, "One solve per step"); ``_keep`` adds the velocity band
+margin that keeps the pattern and PARDISO's analysis across steps (docs/solver.md, "Keeping the
+pattern")."""
 COMMON_SETS = ["time.stop_at_rest=100", "output.figures=false", "output.interval=1"]
 """Run to stop_time (the pile does not rest for 100 time units before t = 4), no figures,
 records at t = 0, 1, .., 4."""
