@@ -32,9 +32,10 @@ Step n -> n+1 (:meth:`Model.advance`):
      ``div u = fac (2|S| A(phi, I) - G(phi) sqrt(p))`` (``Closure.A``,
      ``Closure.compaction_coefficient``) with the AP factor ``fac`` of
      :func:`granflow.physics.dilatancy.ap_factor`, linearised in p as
-     ``G sqrt(p) ~ G (p + p_k) / (2 sqrt(p_e))`` (the tangent about ``p_k``, Newton; the
-     secant ``G p / sqrt(p_e)`` of NUMERICS.md §5.1 until 2026-12-06 grew a period-2 mode of
-     the fluidised chute for dt >= 0.045 s, docs/solver.md "One solve per step") and
+     ``G sqrt(p) ~ G (p + p_k) / (2 sqrt(p_e))`` in a step's first sweep (the tangent about
+     ``p_k``; the secant ``G p / sqrt(p_e)`` of NUMERICS.md §5.1 there grew a period-2 mode of
+     the fluidised chute for dt >= 0.045 s, docs/solver.md "One solve per step"), the secant in
+     the later sweeps (their loop converges in more steps), and
      ``2|S| A(I(p)) ~ 2|S| A(I_e) - |S| I_e dA/dI (p - p_e)/p_e`` (Newton on the I-dependence,
      clipped to keep ``C >= 0``); ``fac = 0`` (infinitely stiff) gives ``div u = 0``;
    * with ``isochoric_interface = r > 0`` (default 1) the dense cells within ``r`` cells of the

@@ -48,8 +48,10 @@ class ClosureCoefficients:
         out[idx] = eta + self.background_viscosity
         return out
 
-    def coefficients(self, phi_e, p_k, S, dt: float, dense) -> Coefficients:
-        """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2).
+    def coefficients(self, phi_e, p_k, S, dt: float, dense, tangent: bool = True) -> Coefficients:
+        """Viscosity and linearised dilatancy row at the iterate (module docstring, step 2); the
+        compaction term ``G sqrt(p)`` linearised by its tangent at ``p_k`` (``tangent``, a step's
+        first sweep) or its secant ``G p / sqrt(p_e)`` (the later sweeps).
 
         The closure is evaluated at ``I_e = I(sqrt(|S|^2 + eps^2), p_e)``,
         ``p_e = sqrt(max(p_k, 0)^2 + delta_p^2)``: the
@@ -66,14 +68,20 @@ class ClosureCoefficients:
             dshear = np.maximum(np.where(S > 0, S * I_e * c.dA_dI(phi_e, I_e), 0.0), 0.0)
             fac = ap_factor(c, phi_e, p_e, S, dt)
             live = fac > 0  # fac = 0: infinitely stiff relaxation, the constraint is div u = 0
-            # b - C p is the law's tangent (Newton) linearisation in p about p_k, the compaction
-            # term -G sqrt(p) included (its secant G/sqrt(p_e) p is twice as stiff): one sweep, and
-            # so every step whose change lies below picard.tol, then solves the row of p^{n+1} to
-            # first order, where the secant left a lag -G/(2 sqrt p) (p^{n+1} - p^n) that grew a
-            # period-2 mode of the fluidised chute for dt >= 0.045 s (docs/solver.md)
+            # tangent: b - C p is the law's Newton linearisation in p about p_k, the compaction
+            # term -G sqrt(p) included; else its secant G p/sqrt(p_e) (twice as stiff). A step's
+            # first sweep takes the tangent: one sweep (and so every step whose change lies below
+            # picard.tol, or one solve per step) then solves the row of p^{n+1} to first order,
+            # where the secant left a lag -G/(2 sqrt p) (p^{n+1} - p^n) that grew a period-2 mode
+            # of the fluidised chute for dt >= 0.045 s; later sweeps the secant, whose loop
+            # converged in more steps of the flagship (docs/solver.md, "One solve per step")
             half_G = 0.5 * c.compaction_coefficient(phi_e) / np.sqrt(p_e)
-            b = np.where(live, fac * (shear + dshear - half_G * np.maximum(p_k, 0.0)), 0.0)
-            C = np.where(live, fac * (half_G + dshear / p_e), 0.0)
+            if tangent:
+                b = np.where(live, fac * (shear + dshear - half_G * np.maximum(p_k, 0.0)), 0.0)
+                C = np.where(live, fac * (half_G + dshear / p_e), 0.0)
+            else:
+                b = np.where(live, fac * (shear + dshear), 0.0)
+                C = np.where(live, fac * (2 * half_G + dshear / p_e), 0.0)
         bad = {name: int(np.count_nonzero(~np.isfinite(v))) for name, v in (("Z", Z), ("b", b), ("C", C))}
         n = dense.size
         eta_c = np.full(n, self.ambient.eta_a)

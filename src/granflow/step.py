@@ -395,7 +395,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
                                                         ex.fluxes_n if sweeps == 1 else None)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
         S_k = sweep_strain_rate(model, ex, u_k, share)
-        coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense)
+        coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense, tangent=sweeps == 1)
         if ex.iso is not None:  # isochoric interface band: div u = 0 there (or free, p = 0)
             coef.b[ex.iso] = 0.0
             coef.C[ex.iso] = 0.0

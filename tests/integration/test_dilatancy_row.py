@@ -41,6 +41,22 @@ def test_row_is_the_tangent_of_the_divergence_law(closure_case):
     assert np.all(np.abs(-coef.C - slope) * P_K <= 1e-4 * scale), (-coef.C, slope)
 
 
+def test_later_sweeps_take_the_secant(closure_case):
+    """``tangent=False`` (a step's later sweeps): the same value at p_k, the compaction term's
+    slope twice the tangent's, ``G/sqrt(p_k)`` against ``G/(2 sqrt(p_k))``."""
+    closure = closure_case.closure
+    model = Model(Grid(nx=3, nz=2, Lx=0.03, Lz=0.02), closure)
+    if model.closure.isochoric:
+        pytest.skip("isochoric closure: no dilatancy row (div u = 0)")
+    dense = np.ones(PHI.size, dtype=bool)
+    tan = model.coefficients(PHI, P_K, S, 0.0, dense)
+    sec = model.coefficients(PHI, P_K, S, 0.0, dense, tangent=False)
+    scale = np.abs(tan.b) + np.abs(tan.C * P_K)
+    assert np.all(np.abs((sec.b - sec.C * P_K) - (tan.b - tan.C * P_K)) <= 1e-12 * scale)
+    half_G = np.asarray(closure.compaction_coefficient(PHI)) / (2 * np.sqrt(np.hypot(P_K, model.delta_p)))
+    assert np.allclose(sec.C - tan.C, half_G, rtol=1e-12, atol=1e-300)
+
+
 def test_fluidised_chute_is_steady_at_cfl_0_4():
     """The 25 deg fluidised chute (beta = 0.15, 20 cells over h0, from rest, the Picard loop) at
     time.cfl = 0.4 (dt = dt_max = 0.05 s), to t = 25 s: u_s drifts 3.6e-8 over the last 2 s with

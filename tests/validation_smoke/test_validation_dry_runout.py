@@ -120,11 +120,11 @@ def test_tiny_series_collapses_spreads_and_rests(tiny, dr):
 def test_v1_tongue_thins_with_dz(tiny_v1, dr):
     """Scheme v1 pinned (threshold surface): the same properties, and the one-cell tongue of the
     diffuse surface, (phi_c/phi_max) dz thick, thins with dz, and with it the thr0.05 run-out.
-    Measured (6, 8.5 cells over H0; 6 Dec 2026, the dilatancy row's tangent linearisation):
-    t_rest 0.78, 0.525 s; thr0.05 run-out 1.82, 1.55; toe 4.16 and 1.88 (the validation's 14-28
+    Measured (6, 8.5 cells over H0; 6 Dec 2026, the dilatancy row's tangent in a step's first
+    sweep): t_rest 0.77, 0.52 s; thr0.05 run-out 1.82, 1.55; toe 3.88 and 1.88 (the validation's 14-28
     cells give 1.23 and 1.39-1.42: these levels are inside the tongue artefact, README). The toe
     is not checked: at 6 cells the deposit ends in a one-cell plateau (0.083-0.084 H0 over five
-    cells; with the secant linearisation four cells then one at 0.05 H0, toe 2.93) whose slope
+    cells; with the secant throughout four cells then one at 0.05 H0, toe 2.93) whose slope
     the toe fit extrapolates, as in the v2 series above."""
     recs, arrays, _ = tiny_v1
     _collapses_spreads_and_rests(recs, arrays, dr, toe_defined=False)
