@@ -25,13 +25,20 @@ P_K = np.array([200.0, 2.0e3, 2.0e4, 5.0e2, 5.0e3, 1.0e4])
 S = np.array([2.0, 20.0, 5.0, 50.0, 3.0, 10.0])
 
 
-def test_row_is_the_tangent_of_the_divergence_law(closure_case):
-    closure = closure_case.closure
-    model = Model(Grid(nx=3, nz=2, Lx=0.03, Lz=0.02), closure)
+def model_of(closure_case) -> Model:
+    """A small model of the closure (the row's coefficients do not depend on the grid)."""
+    model = Model(Grid(nx=3, nz=2, Lx=0.03, Lz=0.02), closure_case.closure)
     if model.closure.isochoric:
         pytest.skip("isochoric closure: no dilatancy row (div u = 0)")
-    dense = np.ones(PHI.size, dtype=bool)
-    coef = model.coefficients(PHI, P_K, S, 0.0, dense)
+    return model
+
+
+DENSE = np.ones(PHI.size, dtype=bool)
+
+
+def test_row_is_the_tangent_of_the_divergence_law(closure_case):
+    closure, model = closure_case.closure, model_of(closure_case)
+    coef = model.coefficients(PHI, P_K, S, 0.0, DENSE)
     row_at_pk = coef.b - coef.C * P_K
     law = np.asarray(closure.div_rate(PHI, P_K, S), dtype=float)
     h = 1e-4 * P_K
@@ -44,13 +51,9 @@ def test_row_is_the_tangent_of_the_divergence_law(closure_case):
 def test_later_sweeps_take_the_secant(closure_case):
     """``tangent=False`` (a step's later sweeps): the same value at p_k, the compaction term's
     slope twice the tangent's, ``G/sqrt(p_k)`` against ``G/(2 sqrt(p_k))``."""
-    closure = closure_case.closure
-    model = Model(Grid(nx=3, nz=2, Lx=0.03, Lz=0.02), closure)
-    if model.closure.isochoric:
-        pytest.skip("isochoric closure: no dilatancy row (div u = 0)")
-    dense = np.ones(PHI.size, dtype=bool)
-    tan = model.coefficients(PHI, P_K, S, 0.0, dense)
-    sec = model.coefficients(PHI, P_K, S, 0.0, dense, tangent=False)
+    closure, model = closure_case.closure, model_of(closure_case)
+    tan = model.coefficients(PHI, P_K, S, 0.0, DENSE)
+    sec = model.coefficients(PHI, P_K, S, 0.0, DENSE, tangent=False)
     scale = np.abs(tan.b) + np.abs(tan.C * P_K)
     assert np.all(np.abs((sec.b - sec.C * P_K) - (tan.b - tan.C * P_K)) <= 1e-12 * scale)
     half_G = np.asarray(closure.compaction_coefficient(PHI)) / (2 * np.sqrt(np.hypot(P_K, model.delta_p)))
