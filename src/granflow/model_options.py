@@ -45,9 +45,9 @@ at 256^2 39.8 s (3), 49.1 s (10) (benchmarks/README.md)."""
 ANALYSIS_STEPS = 4
 """Steps over which PARDISO keeps an analysis (ordering, scaling, matching) of an unchanged pattern
 when :attr:`AmbientParams.velocity_band_margin` > 0. Its scaling and matching are those of the
-matrix it analysed: kept longer, the factorisation and the solve grow (measured on the Lagree column,
-256^2, one solve per step, margin 3: every 1 / 2 / 4 / 8 steps 31.0 / 27.0 / 23.0 / 25.0 s;
-docs/solver.md "Keeping the pattern")."""
+matrix it analysed: kept longer, the factorisation and the solve grow (Lagree column, 256^2, one
+solve per step, margin 3, single runs of a scratch version that forgot the analysis every k-th
+step: k = 1 / 2 / 4 / 8 took 31.0 / 27.0 / 23.0 / 25.0 s; docs/solver.md "Keeping the pattern")."""
 PHI_TRACE = 1.0e-6
 """Cells with ``phi > PHI_TRACE phi_max`` hold grains for the velocity band
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
