@@ -8,6 +8,7 @@ the model's grid, operators, material, ambient, gravity, surface and interface o
 from __future__ import annotations
 
 from functools import cached_property
+from typing import Any, Mapping
 
 import numpy as np
 from scipy.ndimage import maximum_filter
@@ -35,8 +36,12 @@ from granflow.physics.material import (
 )
 from granflow.physics.pore_pressure import cell_permeability, face_permeability
 from granflow.physics.transport import advect
+from granflow.region import region_payload, restore_region
 from granflow.solvers import make_linear_solver
 from granflow.state import State
+
+LINEAR_SOLVER_PREFIX = "model.linear_solver."
+"""Prefix of the linear solver's entries in a checkpoint (:meth:`FieldMaps.checkpoint_payload`)."""
 
 
 class FieldMaps:
@@ -155,11 +160,11 @@ class FieldMaps:
         return cells
 
     region_cache: tuple | None = None
-    """The velocity region and pressure cells kept across steps (:func:`granflow.step.step_region`)."""
+    """The velocity region and pressure cells kept across steps (:func:`granflow.region.step_region`)."""
 
     def _make_linear_solver(self, choice: LinearSolverChoice):
         """The model's linear solver (None: SciPy's direct solve): PARDISO keeps its analysis
-        :data:`ANALYSIS_STEPS` steps with a velocity band margin (:func:`granflow.step.step_region`)."""
+        :data:`ANALYSIS_STEPS` steps with a velocity band margin (:func:`granflow.region.step_region`)."""
         if choice is LinearSolverChoice.DIRECT:
             return None
         if choice is LinearSolverChoice.PARDISO:
@@ -169,12 +174,31 @@ class FieldMaps:
 
     def forget_caches(self) -> None:
         """Drop what is kept from step to step besides the state: the region of
-        :func:`granflow.step.step_region` and the linear solver's kept set-up
-        (:meth:`granflow.solvers.linear.LinearSolver.forget`). Called when a checkpoint is taken,
-        so that a restart from it and the continued run take the next step alike."""
+        :func:`granflow.region.step_region` and the linear solver's kept set-up
+        (:meth:`granflow.solvers.linear.LinearSolver.forget`)."""
         self.region_cache = None
         if self.linear_solver is not None:
             self.linear_solver.forget()
+
+    def checkpoint_payload(self, simulation=None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """``(arrays, scalars)`` of what is kept from step to step besides the state, so that a
+        restart continues bit for bit (:class:`granflow.simulation.Simulation` saves them with
+        every checkpoint): the kept region (:func:`granflow.region.region_payload`) and the
+        linear solver's kept set-up, under :data:`LINEAR_SOLVER_PREFIX` (PARDISO's analysed
+        matrix, :meth:`granflow.solvers.pardiso.PardisoSolver.checkpoint_payload`). Empty
+        without ``numerics.ambient.velocity_band_margin``."""
+        a, s = ({}, {}) if self.linear_solver is None else self.linear_solver.checkpoint_payload()
+        return ({**region_payload(self), **{LINEAR_SOLVER_PREFIX + k: v for k, v in a.items()}},
+                {LINEAR_SOLVER_PREFIX + k: v for k, v in s.items()})
+
+    def restore_checkpoint(self, arrays: Mapping[str, Any], scalars: Mapping[str, Any]) -> None:
+        """Take up a :meth:`checkpoint_payload`; what it lacks starts afresh (a checkpoint of a
+        run without a margin, or of an older version)."""
+        restore_region(self, arrays)
+        if self.linear_solver is not None:
+            def own(d):
+                return {k[len(LINEAR_SOLVER_PREFIX):]: v for k, v in d.items() if k.startswith(LINEAR_SOLVER_PREFIX)}
+            self.linear_solver.restore_checkpoint(own(arrays), own(scalars))
 
     def grain_cells(self, phi, margin: int) -> np.ndarray:
         """Flat mask of the cells within ``margin`` cells of grains (``phi > PHI_TRACE phi_max``)."""

@@ -143,10 +143,11 @@ class AmbientParams(Params):
         With a margin ``m > 0`` the velocity unknowns are those of a band ``velocity_band + m``
         cells wide, and the pressure unknowns every dense cell or cell within ``m`` cells of
         grains, both kept from step to step while the ``velocity_band`` band and the dense cells
-        stay inside them (:func:`granflow.step.step_region`); with ``linear_solver`` PARDISO the
+        stay inside them (:func:`granflow.region.step_region`); with ``linear_solver`` PARDISO the
         matrix pattern then stays the same over those steps and its analysis is kept for up to
         :data:`ANALYSIS_STEPS` steps (:class:`granflow.solvers.pardiso.PardisoSolver`). Default
-        0: both rebuilt at every step (docs/solver.md "Keeping the pattern").
+        0: both rebuilt at every step. Checkpoints store both, so restarts stay bit-identical
+        (docs/solver.md "Keeping the pattern").
     """
 
     phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")

@@ -416,16 +416,15 @@ class Simulation:
                                    *self.checkpointers.items()])
 
     def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """``(arrays, scalars)`` with everything a bit-identical restart needs; the model's caches
-        kept across steps are dropped (:meth:`granflow.model.Model.forget_caches`). Arrays:
+        """``(arrays, scalars)`` with everything a bit-identical restart needs. Arrays:
         ``state.<phi|vel|p|p_f>`` (``c``, ``accel``, ``accel_prev``, ``free`` if set), the budget's
         arrays (``budget.rho_f``). Scalars: ``state.t``, ``state.step`` (``accel_dt`` if set), the
         other budget fields, :class:`RunTotals`, the next due time of every :class:`TimeInterval`
         schedule (``schedule.<name>``). Then what the scheduled entries with a
-        ``checkpoint_payload(simulation)`` method add (e.g. a :class:`granflow.output.recorders.
-        FrontRecorder`'s front history); :func:`granflow.output.checkpoint.save_checkpoint` saves them."""
+        ``checkpoint_payload(simulation)`` method add: the model (what it keeps across steps,
+        :meth:`granflow.model.Model.checkpoint_payload`), a :class:`granflow.output.recorders.
+        FrontRecorder`'s front history; :func:`granflow.output.checkpoint.save_checkpoint` saves them."""
         st, b = self.state, self.budget
-        getattr(self.model, "forget_caches", lambda: None)()
         arrays = {f"state.{k}": getattr(st, k) for k in STATE_ARRAYS + OPTIONAL_FIELDS
                   if getattr(st, k) is not None}
         scalars: dict[str, Any] = {"state.t": st.t, "state.step": st.step, "n_rejected": self.n_rejected,
@@ -440,7 +439,7 @@ class Simulation:
                 scalars[f"budget.{f.name}"] = value
         scalars.update({f"totals.{f.name}": getattr(self.totals, f.name) for f in fields(RunTotals)})
         scalars.update({key: schedule._next for key, schedule in self._schedule_keys()})
-        add_entry_payloads(self, self._entries(), arrays, scalars)
+        add_entry_payloads(self, [("model", self.model), *self._entries()], arrays, scalars)
         return arrays, scalars
 
     def restore_checkpoint(self, arrays: Mapping[str, np.ndarray], scalars: Mapping[str, Any]) -> None:
@@ -490,7 +489,7 @@ class Simulation:
         for key, schedule in self._schedule_keys():
             if key in scalars:
                 schedule._next = float(scalars[key])
-        for name, entry in self._entries():
+        for name, entry in [("model", self.model), *self._entries()]:
             restore = getattr(entry, "restore_checkpoint", None)
             if restore is None:
                 continue

@@ -33,6 +33,7 @@ from granflow.physics import wall_friction as wf
 from granflow.physics.material import C_ROW, material_window, packing
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
 from granflow.predictor import first_iterate
+from granflow.region import band_edge, step_region  # noqa: F401  (re-exported)
 from granflow.solvers import SaddleHints
 from granflow.step_energy import energy_terms  # noqa: F401  (stage 3, re-exported)
 
@@ -143,22 +144,6 @@ class Explicit:
     dense cells)."""
 
 
-def band_edge(ops, keep) -> tuple:
-    """Masks of the cells (n_cells,) and nodes (n_nodes,) whose strain rate involves a velocity
-    unknown outside the band ``keep`` (``ec``/``en`` of :mod:`granflow.operators`; ``ops`` the
-    Operators or the pair ``(|ec|, |en|)``, :attr:`granflow.model.Model.strain_stencils`). Their viscosity
-    is set to 0, so that the band's edge is stress-free: the ambient beyond the band is not a wall
-    at rest that the material would drag through the ambient viscosity (with ``u = 0`` there and
-    ``eta_a`` = 1e-3 Pa s, a 1 cm mu(I) layer at 22 deg released from rest ran 2.7 % (40 cells
-    over h) to 5.6 % (80 cells) under Bagnold's u_s, the stress eta_a u_s / (band dz) growing as
-    1/dz; stress-free: +0.4 %, as with the band off). Conservative: ``V`` keeps the form
-    ``ec^T diag(eta_c) ec + en^T diag(w eta_n) en`` with fewer terms, so the dissipation identity
-    holds."""
-    out = (~np.asarray(keep, dtype=bool)).astype(float)
-    ec, en = ops if isinstance(ops, tuple) else (abs(ops.ec), abs(ops.en))
-    return (ec @ out > 0.0), (en @ out > 0.0)
-
-
 @dataclass
 class Implicit:
     """Outcome of the Picard loop (:func:`implicit_stage`)."""
@@ -236,33 +221,6 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
                     band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.strain_rate_on(dense),
                     source=source, pressure_cells=pressure_cells)
-
-
-def step_region(model, phi, dense) -> tuple:
-    """``(keep, region, band edge, pressure cells)`` of a step: the velocity unknowns
-    (:meth:`granflow.model.Model.velocity_region`), their assembly gathers, the stress-free band
-    edge (:func:`band_edge`, indicator surface) and the cells whose p is an unknown (None: the
-    dense cells). With ``numerics.ambient.velocity_band_margin = m > 0`` they are built ``m``
-    cells wider (the pressure cells: the dense ones and every cell within ``m`` cells of grains)
-    and kept on the model (``model.region_cache``) for the next steps while the band of
-    ``velocity_band`` cells and the dense cells stay inside them, so that the saddle system keeps
-    its pattern (and PARDISO its analysis); :meth:`granflow.model.Model.forget_caches` drops them."""
-    keep = model.velocity_region(phi)
-    margin = model.ambient.velocity_band_margin
-    if keep is None or not margin or model.velocity_band is None:
-        region = None if keep is None else model.assembler.region(keep)
-        edge = None if keep is None or not model.indicator else band_edge(model.strain_stencils, keep)
-        return keep, region, edge, None
-    cache = model.region_cache
-    if cache is None or np.any(keep & ~cache[0]) or np.any(dense & ~cache[3]):
-        wide = model.velocity_region(phi, band=model.velocity_band + margin)
-        if wide is None:  # the wider band covers the grid: solve everywhere, nothing to keep
-            return None, None, None, None
-        near = model.grain_cells(phi, margin)
-        cache = model.region_cache = (wide, model.assembler.region(wide),
-                                      None if not model.indicator else band_edge(model.strain_stencils, wide),
-                                      near | np.asarray(dense, dtype=bool))
-    return cache
 
 
 def hint_viscosity(model, eta) -> np.ndarray:

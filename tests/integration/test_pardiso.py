@@ -438,8 +438,7 @@ def test_kept_analysis_is_redone_before_superlu_when_its_residual_is_too_large(s
 def test_velocity_band_margin_keeps_the_pattern_across_steps():
     """``numerics.ambient.velocity_band_margin``: the region and pressure cells built ``m`` cells
     wider are kept while the grains' band stays inside (fewer analyses than steps), the steps
-    agree with the margin-free model to the band's own effect, and a checkpoint
-    (``forget_caches``) drops them."""
+    agree with the margin-free model to the band's own effect, and ``forget_caches`` drops them."""
     from granflow.step import step_region
 
     results = {}
@@ -456,3 +455,53 @@ def test_velocity_band_margin_keeps_the_pattern_across_steps():
     assert rel(s3.vel, s0.vel) < 1e-2
     m3.forget_caches()
     assert m3.region_cache is None
+
+
+def _margin_column():
+    return column("pardiso", nx=48, nz=12, ambient={"velocity_band": 3, "velocity_band_margin": 3})
+
+
+@pytest.mark.parametrize("at", [3, 5])
+def test_kept_pattern_restores_from_a_checkpoint_bit_for_bit(at):
+    """A model rebuilt from a checkpoint taken at any step of PARDISO's analysis window
+    (``Model.checkpoint_payload``: the kept region's two masks and the analysed matrix) takes the
+    next steps exactly as the continued model does; the control, a rebuilt model without the
+    payload, analyses afresh and does not (the kept analysis changes the round-off)."""
+    model, state = _margin_column()
+    dt = 2e-3
+    for _ in range(at):
+        assert not model.advance(state, dt).failed
+    arrays, scalars = model.checkpoint_payload()
+    saved = state.copy()
+    assert {"model.region.velocity", "model.region.pressure", "model.linear_solver.analysis.data"} <= arrays.keys()
+    assert scalars["model.linear_solver.analysis.kept_steps"] == {3: 2, 5: 0}[at]  # inside / at the start of a window
+    runs = {}
+    for name in ("continued", "restored", "control"):
+        if name == "continued":
+            m, s = model, state
+        else:
+            m, s = _margin_column()
+            s.restore(saved)
+            if name == "restored":
+                m.restore_checkpoint(arrays, scalars)
+        for _ in range(4):
+            assert not m.advance(s, dt).failed
+        runs[name] = s
+    assert runs["restored"].vel.tobytes() == runs["continued"].vel.tobytes()
+    assert runs["restored"].p.tobytes() == runs["continued"].p.tobytes()
+    assert runs["control"].vel.tobytes() != runs["continued"].vel.tobytes()
+
+
+def test_kept_pattern_checkpoint_entries_are_checked():
+    """A malformed kept region or analysed matrix in a checkpoint is refused, naming the entry."""
+    from granflow.errors import GranflowInputError
+
+    model, state = _margin_column()
+    assert not model.advance(state, 2e-3).failed
+    arrays, scalars = model.checkpoint_payload()
+    bad = {**arrays, "model.region.velocity": arrays["model.region.velocity"].astype(float)}
+    with pytest.raises(GranflowInputError, match="model.region.velocity"):
+        _margin_column()[0].restore_checkpoint(bad, scalars)
+    bad = {**arrays, "model.linear_solver.analysis.indices": arrays["model.linear_solver.analysis.indices"] + 10**6}
+    with pytest.raises(GranflowInputError, match="analysis.indices"):
+        _margin_column()[0].restore_checkpoint(bad, scalars)

@@ -173,8 +173,8 @@ def _arrays(path: Path) -> dict[str, bytes]:
 def test_restart_is_bit_identical(tmp_path, capsys, predictor, sweeps, margin):
     """2N steps in one go versus N steps + restart from the step-N checkpoint + N steps (with the
     "extrapolated" Picard predictor the restart needs the checkpoint's state.accel; with one solve
-    per step its state.free, granflow.active_set; with a velocity band margin the region and
-    PARDISO's analysis kept across steps are dropped at every checkpoint, granflow.step.step_region)."""
+    per step its state.free, granflow.active_set; with a velocity band margin the kept region and
+    the matrix of PARDISO's kept analysis, granflow.region)."""
     a, b = tmp_path / "a", tmp_path / "b"
     pred = ["--set", f'numerics.picard.predictor="{predictor}"', "--set", f"numerics.picard.max_sweeps={sweeps}",
             "--set", f"numerics.ambient.velocity_band_margin={margin}"]

@@ -29,7 +29,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 import pyamg
@@ -194,7 +194,15 @@ class LinearSolver:
 
     def forget(self) -> None:
         """End any window over which set-up is kept across steps (``pardiso``'s
-        ``analysis_steps``); called when a checkpoint is taken. No-op by default."""
+        ``analysis_steps``). No-op by default."""
+
+    def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """``(arrays, scalars)`` of the set-up kept across steps that the next steps' results depend
+        on (``pardiso``'s kept analysis), for a restart that continues bit for bit; none by default."""
+        return {}, {}
+
+    def restore_checkpoint(self, arrays: Mapping[str, Any], scalars: Mapping[str, Any]) -> None:
+        """Take up a :meth:`checkpoint_payload` (keys as it wrote them). No-op by default."""
 
     def describe(self) -> dict[str, Any]:
         """Name and parameters (for reports and output metadata)."""

@@ -26,21 +26,20 @@ public ``solve`` always re-analyses a new matrix), hence the pin ``pypardiso < 0
 """
 from __future__ import annotations
 
-import ctypes
-import functools
-import glob
-import os
-import sys
 import time
 from enum import Enum
+from typing import Any, Mapping
 
 import numpy as np
 import scipy.sparse as sp
 from pydantic import Field
 
+from granflow.errors import GranflowInputError
 from granflow.params import Params
 from granflow.solvers.linear import (LINEAR_SOLVERS, LinearSolver, LinearSolverError, MatrixChange,
                                      SolveInfo, check_system, relative_residual)
+from granflow.solvers.pardiso_mkl import (_new_pypardiso, _pardiso_call, _thread_local_setter,  # noqa: F401
+                                          _transpose_permutation, _UpperTriangle, pardiso_available)
 
 
 class PardisoPhase(int, Enum):
@@ -112,151 +111,10 @@ singular. Found on a prepared (gas-injected) column at the release step, where P
 was 1.4e-8 at every dt (the run failed before the fallback existed)."""
 FALLBACK_RESIDUAL_LIMIT = 1.0e-6
 """The SuperLU fallback's solution must reach this relative residual, or the solve is an error."""
-
-
-_MKL_RT_VARIABLE = "PYPARDISO_MKL_RT"
-"""pypardiso reads the path of MKL's runtime library from this environment variable; without it
-every new solver searches ``sys.prefix`` with a recursive glob (0.5 s each, measured)."""
-
-
-_MKL_RT_GLOBS = ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
-"""Where the ``mkl`` wheel puts the runtime under ``sys.prefix`` (looked at before pypardiso's
-recursive search)."""
-
-
-@functools.cache
-def _mkl_runtime() -> str | None:
-    """Path of the MKL runtime (searched once per process), or None if pypardiso or MKL is missing.
-
-    ``import pypardiso`` builds a module-level solver, which searches ``sys.prefix`` recursively
-    (0.8 s) unless the environment variable points at the runtime: it is set for the import."""
-    quick = sorted((p for pat in _MKL_RT_GLOBS for p in glob.glob(os.path.join(sys.prefix, pat))), key=len)
-    pypardiso = None
-    for path in [*quick, None]:  # None: pypardiso's own search
-        saved = os.environ.get(_MKL_RT_VARIABLE)
-        if path is not None and saved is None:
-            os.environ[_MKL_RT_VARIABLE] = path
-        try:
-            import pypardiso
-            break
-        except ModuleNotFoundError:  # pypardiso is not installed
-            return None
-        except Exception:  # its module-level solver found no loadable runtime with this path
-            continue
-        finally:
-            if saved is None:
-                os.environ.pop(_MKL_RT_VARIABLE, None)
-    if pypardiso is None:
-        return None
-    for path in [*quick, None]:
-        saved = os.environ.get(_MKL_RT_VARIABLE)
-        if path is not None and saved is None:
-            os.environ[_MKL_RT_VARIABLE] = path
-        try:
-            return str(pypardiso.PyPardisoSolver().libmkl._name)
-        except Exception:  # this library does not load, or (path None) pypardiso finds none
-            continue
-        finally:
-            if saved is None:
-                os.environ.pop(_MKL_RT_VARIABLE, None)
-    return None
-
-
-def pardiso_available() -> bool:
-    """True if ``pypardiso`` imports and finds the MKL runtime."""
-    return _mkl_runtime() is not None
-
-
-def _thread_local_setter(libmkl):
-    """``MKL_Set_Num_Threads_Local`` of the loaded runtime (n > 0: this thread's MKL calls use n
-    threads; 0: back to the global setting), or None if the runtime lacks it."""
-    try:
-        fn = libmkl.MKL_Set_Num_Threads_Local
-    except AttributeError:
-        return None
-    fn.restype = ctypes.c_int
-    fn.argtypes = [ctypes.c_int]
-    return fn
-
-
-def _new_pypardiso(mtype: int):
-    """A ``pypardiso.PyPardisoSolver`` pointed at the runtime found by :func:`_mkl_runtime`
-    (the environment variable is set only for the constructor and restored afterwards)."""
-    import pypardiso
-
-    saved = os.environ.get(_MKL_RT_VARIABLE)
-    os.environ[_MKL_RT_VARIABLE] = saved or _mkl_runtime()
-    try:
-        return pypardiso.PyPardisoSolver(mtype=mtype)
-    finally:
-        if saved is None:
-            del os.environ[_MKL_RT_VARIABLE]
-
-
-def _transpose_permutation(A: sp.csr_matrix) -> np.ndarray | None:
-    """For a CSR pattern (canonical) that equals its transpose's and stores every diagonal
-    entry: the permutation ``t`` with ``A.T``'s CSR data ``= A.data[t]``, so that a matrix of
-    that pattern is symmetric exactly when ``A.data[t] == A.data`` (one gather instead of a
-    transposition per sweep); else None."""
-    n = A.shape[0]
-    T = sp.csr_matrix((np.arange(A.nnz, dtype=np.int64), A.indices, A.indptr), shape=A.shape).tocsc()
-    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)):
-        return None
-    rows = np.repeat(np.arange(n), np.diff(A.indptr))
-    if int(np.count_nonzero(A.indices == rows)) != n:
-        return None
-    return T.data
-
-
-class _UpperTriangle:
-    """The upper triangle (diagonal included) of a fixed CSR pattern: which entries, and its own
-    CSR pattern, so that every matrix of the pattern gives the same triangle pattern (stored
-    zeros kept, unlike ``scipy.sparse.triu``). :meth:`of_values` fills one CSR matrix kept per
-    pattern, whose index arrays are private (never changed), with PARDISO's 1-based int32 copies
-    made once (``one_based``; pypardiso's ``_call_pardiso`` makes them at every phase)."""
-
-    def __init__(self, shape, keep: np.ndarray, indptr: np.ndarray, indices: np.ndarray) -> None:
-        self.shape, self.keep, self.indptr, self.indices = shape, keep, indptr, indices
-        self.matrix = sp.csr_matrix((np.zeros(keep.size), indices, indptr), shape=shape)
-        self.one_based = (self.matrix.indptr.astype(np.int32) + 1, self.matrix.indices.astype(np.int32) + 1)
-
-    @classmethod
-    def of(cls, A: sp.csr_matrix) -> _UpperTriangle:
-        n = A.shape[0]
-        rows = np.repeat(np.arange(n), np.diff(A.indptr))
-        up = A.indices >= rows
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[up], minlength=n))])
-        return cls(A.shape, np.flatnonzero(up), indptr, A.indices[up])
-
-    def of_values(self, data: np.ndarray) -> sp.csr_matrix:
-        self.matrix.data = data[self.keep]
-        return self.matrix
-
-
-def _pardiso_call(solver, A: sp.csr_matrix, b: np.ndarray, one_based=None) -> np.ndarray:
-    """pypardiso's ``PyPardisoSolver._call_pardiso`` (0.4.x) with the 1-based int32 index arrays
-    ``one_based = (ia, ja)`` of ``A`` given (made here if None): the same MKL ``pardiso`` call,
-    arguments and error (``PyPardisoError``)."""
-    from pypardiso.pardiso_wrapper import PyPardisoError
-
-    ia, ja = one_based if one_based is not None else (A.indptr.astype(np.int32) + 1,
-                                                      A.indices.astype(np.int32) + 1)
-    x = np.zeros_like(b)
-    err = ctypes.c_int32(0)
-    int_p, float_p = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
-
-    def int_ref(v: int):
-        return ctypes.byref(ctypes.c_int32(v))
-
-    solver._mkl_pardiso(solver.pt.ctypes.data_as(ctypes.POINTER(solver._pt_type[0])), int_ref(1), int_ref(1),
-                        int_ref(solver.mtype), int_ref(solver.phase), int_ref(A.shape[0]),
-                        A.data.ctypes.data_as(float_p), ia.ctypes.data_as(int_p), ja.ctypes.data_as(int_p),
-                        solver.perm.ctypes.data_as(int_p), int_ref(1 if b.ndim == 1 else b.shape[1]),
-                        solver.iparm.ctypes.data_as(int_p), int_ref(solver.msglvl),
-                        b.ctypes.data_as(float_p), x.ctypes.data_as(float_p), ctypes.byref(err))
-    if err.value != 0:
-        raise PyPardisoError(err.value)
-    return np.ascontiguousarray(x)
+ANALYSIS_KEYS = ("analysis.indptr", "analysis.indices", "analysis.data")
+"""Checkpoint arrays of a kept analysis (:meth:`PardisoSolver.checkpoint_payload`): its matrix, CSR."""
+KEPT_STEPS_KEY = "analysis.kept_steps"
+"""Checkpoint scalar: steps begun since that analysis (:meth:`PardisoSolver.begin_step`)."""
 
 
 @LINEAR_SOLVERS.register("pardiso")
@@ -338,6 +196,8 @@ class PardisoSolver(LinearSolver):
         """:func:`_transpose_permutation` of the current pattern (symmetric type only)."""
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
         self._data: np.ndarray | None = None
+        self._analysed: np.ndarray | None = None
+        """Values of the analysed matrix, kept only with ``analysis_steps > 1`` (for checkpoints)."""
         self.analyses = 0
         self.factorisations = 0
         self.fallbacks = 0
@@ -374,6 +234,7 @@ class PardisoSolver(LinearSolver):
         """Drop the analysis now: the next solve analyses afresh."""
         self._pattern = None
         self._data = None
+        self._analysed = None
         self._kept_steps = 0
 
     def _call(self, phase: PardisoPhase, A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
@@ -426,27 +287,9 @@ class PardisoSolver(LinearSolver):
         if (same_pattern and not same_values and self._upper is not None
                 and not np.array_equal(A.data[self._transpose], A.data)):
             same_pattern = False  # new values are not symmetric: analyse again as unsymmetric
-        analysed = False
-        if not same_pattern:
-            self._pattern, self._data = None, None  # valid again only once the phases succeed
-            self._transpose = _transpose_permutation(A)
-            if self._transpose is not None and not np.array_equal(A.data[self._transpose], A.data):
-                self._transpose = None
-            self._upper = None if self._transpose is None else _UpperTriangle.of(A)
-            mtype = MatrixType.UNSYMMETRIC if self._upper is None else MatrixType.SYMMETRIC_INDEFINITE
-            if mtype is not self.matrix_type:
-                self._release()
-                self._set_type(mtype)
-            self._allocated = True
-            # one thread needs MKL's thread-local setter; without it keep the reproducibility mode
-            self._single_thread = (A.shape[0] < self.params.threaded_min_unknowns
-                                   and _thread_local_setter(self._solver.libmkl) is not None)
-            self._solver.set_iparm(34, 0 if self._single_thread else int(self.params.reproducible_threads))
-            self._call(PardisoPhase.ANALYSIS, self._stored(A), np.zeros(A.shape[0]))
-            self._pattern = (A.indptr.copy(), A.indices.copy())
-            self.analyses += 1
-            self._kept_steps = 0  # the window counts from the analysis
-            analysed = True
+        analysed = not same_pattern
+        if analysed:
+            self._analyse(A)
         M = self._stored(A)
         if not same_values:
             self._data = None
@@ -468,6 +311,62 @@ class PardisoSolver(LinearSolver):
             t2 = time.perf_counter()
         return x, SolveInfo(solver=self.name, iterations=0, residual=res, scaled_residual=res,
                             setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=analysed)
+
+    def _analyse(self, A: sp.csr_matrix) -> None:
+        """Phase 11 on ``A`` (CSR, sorted indices): symmetric type if ``A`` is exactly symmetric."""
+        self._pattern, self._data, self._analysed = None, None, None  # valid again once the phase succeeds
+        self._transpose = _transpose_permutation(A)
+        if self._transpose is not None and not np.array_equal(A.data[self._transpose], A.data):
+            self._transpose = None
+        self._upper = None if self._transpose is None else _UpperTriangle.of(A)
+        mtype = MatrixType.UNSYMMETRIC if self._upper is None else MatrixType.SYMMETRIC_INDEFINITE
+        if mtype is not self.matrix_type:
+            self._release()
+            self._set_type(mtype)
+        self._allocated = True
+        # one thread needs MKL's thread-local setter; without it keep the reproducibility mode
+        self._single_thread = (A.shape[0] < self.params.threaded_min_unknowns
+                               and _thread_local_setter(self._solver.libmkl) is not None)
+        self._solver.set_iparm(34, 0 if self._single_thread else int(self.params.reproducible_threads))
+        self._call(PardisoPhase.ANALYSIS, self._stored(A), np.zeros(A.shape[0]))
+        self._pattern = (A.indptr.copy(), A.indices.copy())
+        self._analysed = A.data.copy() if self.params.analysis_steps > 1 else None
+        self.analyses += 1
+        self._kept_steps = 0  # the window counts from the analysis
+
+    def checkpoint_payload(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """The matrix of a kept analysis (``analysis_steps > 1``; :data:`ANALYSIS_KEYS`) and the
+        steps since it, so that :meth:`restore_checkpoint` analyses the same matrix again and the
+        restarted run factorises its next matrices as the continued one does, bit for bit."""
+        if self._pattern is None or self._analysed is None:
+            return {}, {}
+        return (dict(zip(ANALYSIS_KEYS, (*self._pattern, self._analysed))),
+                {KEPT_STEPS_KEY: int(self._kept_steps)})
+
+    def restore_checkpoint(self, arrays: Mapping[str, Any], scalars: Mapping[str, Any]) -> None:
+        """Analyse the matrix of a :meth:`checkpoint_payload` again (nothing if it holds none).
+
+        Raises
+        ------
+        GranflowInputError
+            If the stored matrix is not a square CSR matrix or its step count is not an integer.
+        """
+        self.forget()
+        if self.params.analysis_steps <= 1 or not all(k in arrays for k in ANALYSIS_KEYS):
+            return
+        indptr, indices, data = (np.asarray(arrays[k]) for k in ANALYSIS_KEYS)
+        kept = scalars.get(KEPT_STEPS_KEY)
+        n = indptr.size - 1
+        if (indptr.dtype.kind not in "iu" or indices.dtype.kind not in "iu" or data.dtype.kind != "f"
+                or n < 1 or indices.size != data.size or indptr[0] != 0 or indptr[-1] != data.size
+                or np.any(np.diff(indptr) < 0) or (indices.size and not 0 <= indices.min() <= indices.max() < n)
+                or isinstance(kept, bool) or not isinstance(kept, int) or kept < 0):
+            raise GranflowInputError(f"checkpoint: {', '.join(ANALYSIS_KEYS)} and {KEPT_STEPS_KEY} are not a "
+                                    "square CSR matrix and a step count")
+        A = sp.csr_matrix((data.astype(np.float64), indices, indptr), shape=(n, n))
+        A.sort_indices()
+        self._analyse(A)
+        self._kept_steps = kept
 
     def _stored(self, A: sp.csr_matrix) -> sp.csr_matrix:
         """What PARDISO is given: ``A``, or its upper triangle for the symmetric type."""
