@@ -32,7 +32,7 @@ from granflow.physics import momentum_transport as mt
 from granflow.physics import wall_friction as wf
 from granflow.physics.material import C_ROW, material_window, packing
 from granflow.physics.transport import POSITIVITY_CFL, cfl_number, clip_to_bounds
-from granflow.predictor import first_iterate
+from granflow.predictor import first_iterate, sweep_cap
 from granflow.region import band_edge, step_region  # noqa: F401  (re-exported)
 from granflow.solvers import SaddleHints
 from granflow.step_energy import energy_terms  # noqa: F401  (stage 3, re-exported)
@@ -345,7 +345,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     rho_k, flux_div, rhs_u, share = ex.rho_n, None, ex.rhs_u, None  # share: base_nodes
     phi_f_n = model.dual_mean(state.phi) if consistent else None
     window_n = ex.window if consistent else None
-    for sweeps in range(1, model.picard.max_sweeps + 1):
+    for sweeps in range(1, sweep_cap(model, state) + 1):  # (one solve per step: 1 but at its start)
         t0 = time.perf_counter()
         if consistent:
             rho_k, flux_div, rhs_u = consistent_inertia(model, state.vel, u_k, dt, ex.rhs_u, state.phi,

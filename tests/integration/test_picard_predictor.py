@@ -18,6 +18,7 @@ import pytest
 from granflow.cases import CASES
 from granflow.config import CaseConfig
 from granflow.model_options import PicardParams
+from granflow.predictor import STARTUP_SWEEPS, sweep_cap
 from granflow.step import first_iterate
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "inclined_layer_from_rest.toml"
@@ -57,6 +58,18 @@ def test_first_iterate_limits_the_extrapolation_by_the_step_before():
                             accel_prev=np.array([2.0, -4.0, -0.25, 0.0]))
     model = SimpleNamespace(picard=PicardParams(predictor="extrapolated"))
     assert np.array_equal(first_iterate(model, state, 0.5), [1.25, -2.0, 0.375, 0.0])
+
+
+def test_one_solve_per_step_iterates_the_step_without_an_acceleration():
+    """``sweep_cap``: a one-solve step with the extrapolated predictor and no ``a^n`` (the first
+    of a run, a restart without ``state.accel``) gets the loop (STARTUP_SWEEPS, to picard.tol);
+    every other step, and the iterated loop always, its ``max_sweeps``."""
+    no_accel, accel = SimpleNamespace(accel=None), SimpleNamespace(accel=np.zeros(3))
+    one = SimpleNamespace(picard=PicardParams(max_sweeps=1, predictor="extrapolated"))
+    assert sweep_cap(one, no_accel) == STARTUP_SWEEPS > 10 and sweep_cap(one, accel) == 1
+    for picard in (PicardParams(max_sweeps=1), PicardParams(), PicardParams(max_sweeps=2, predictor="extrapolated")):
+        for state in (no_accel, accel):
+            assert sweep_cap(SimpleNamespace(picard=picard), state) == picard.max_sweeps
 
 
 def test_predictor_is_validated():
