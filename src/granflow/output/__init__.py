@@ -4,10 +4,12 @@ and the output writers, checkpointers and diagnostics recorders a
 :mod:`granflow.output.recorders`, :mod:`granflow.output.fields`; docs/scripting.md).
 
 Importing this package registers the ``ds.granflow`` accessor on xarray Datasets
-(:mod:`granflow.output.accessor`).
+(:mod:`granflow.output.accessor`) without importing xarray (0.3-0.5 s with pandas, which a run
+does not need: it writes with netCDF4): at once if xarray is already imported, else as soon as it
+is (:mod:`granflow.output.xarray_hook`). ``Direction``, ``FrontMethod`` and ``GranflowAccessor``
+are imported from the accessor module on first access (PEP 562), which imports xarray.
 """
-from granflow.output import accessor  # noqa: F401  (registers ds.granflow)
-from granflow.output.accessor import Direction, FrontMethod, GranflowAccessor
+from granflow._lazy import lazy_attributes
 from granflow.output.checkpoint import (
     CheckpointError,
     CheckpointManager,
@@ -33,6 +35,12 @@ from granflow.output.recorders import (
 )
 from granflow.output.summary import atomic_write, jsonable, write_json_atomic
 from granflow.output.writers import Checkpointer, NetCDFOutputWriter
+from granflow.output.xarray_hook import register_accessor_when_xarray_imported
+
+register_accessor_when_xarray_imported()
+
+_LAZY = {name: "granflow.output.accessor" for name in ("Direction", "FrontMethod", "GranflowAccessor")}
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
 
 __all__ = [
     "ARRAY_DIMS",
