@@ -1,9 +1,11 @@
-"""Start-up wall time of the ``granflow`` command and of ``import granflow``.
+"""Start-up wall time of the ``granflow`` command and of ``import granflow``; with ``--run``, the
+fixed cost of a run.
 
 Times whole processes (fresh interpreter each run, wall clock, ``time.perf_counter`` around
-``subprocess.run``) and prints, per command, the median and the minimum of ``--runs`` runs and the
-ratio of the median to that of the reference command ``python -c pass`` (the interpreter's own
-start-up on this machine). Ratios travel between machines better than seconds; the CPU model
+``subprocess.run``, and user CPU, the children's ``resource.getrusage``) and prints, per command,
+the median and the minimum of ``--runs`` runs, the ratio of the median wall time to that of the
+reference command ``python -c pass`` (the interpreter's own start-up on this machine) and the
+median user CPU. Ratios travel between machines better than seconds; the CPU model
 name (``/proc/cpuinfo``) and the core count are printed with them. Asserts nothing about time.
 
 Commands (``python`` is this interpreter, ``sys.executable``):
@@ -12,23 +14,32 @@ Commands (``python`` is this interpreter, ``sys.executable``):
   (``from granflow.cli import main; sys.exit(main())``) but without a launcher in front (a pyenv
   shim or a Windows .exe wrapper would add its own start-up);
 * ``python -c "import granflow"``;
-* the reference ``python -c pass``.
+* the reference ``python -c pass``;
+* with ``--run``: ``granflow run examples/lagree_column.toml`` at 128² to t = 0.02 (two steps, no
+  figures, output to a temporary directory, one thread): nearly all of it is the fixed cost of a
+  run -- imports, Numba's start-up, set-up, output -- that issue 15's whole-process user CPU
+  against Basilisk includes (benchmarks/vs_basilisk.py runs the same command line).
 
 The granflow imported is the one on this interpreter's path: to measure a source tree, set
 ``PYTHONPATH=<tree>/src``. One warm-up run of each command precedes the timed runs (file-system
-cache, ``__pycache__``).
+cache, ``__pycache__``, Numba's kernel cache). Without ``__pycache__`` (``PYTHONDONTWRITEBYTECODE``
+set and no compiled files, as in an editable install on such a machine) every run compiles
+granflow's sources, 0.1-0.2 s of a run on the 2-core development machine.
 
-Run:   python benchmarks/startup.py [--runs 5] [--importtime]
-Time:  ~10 s for 5 runs.
+Run:   python benchmarks/startup.py [--runs 5] [--importtime] [--run]
+Time:  ~10 s for 5 runs; ~25 s more with --run.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 CLI = "import sys; from granflow.cli import main; sys.exit(main())"
 
@@ -39,6 +50,21 @@ COMMANDS = {
     "granflow list closures": [sys.executable, "-c", CLI, "list", "closures"],
 }
 REFERENCE = "python -c pass (reference)"
+ROOT = Path(__file__).resolve().parents[1]
+RUN_NAME = "granflow run (Lagree 128², 2 steps)"
+RUN_SETS = ["grid.nx=128", "grid.nz=128", "time.stop_time=0.02", "setup.a=1.42",
+            "time.stop_at_rest=100", "output.figures=false", "output.interval=1"]
+"""The two-step run: vs_basilisk.py's command line at 128² stopped after two steps."""
+RUN_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
+def run_command(out: Path) -> list[str]:
+    """``granflow run`` of the two-step Lagrée column, writing to ``out``."""
+    cmd = [sys.executable, "-c", CLI, "run", str(ROOT / "examples" / "lagree_column.toml"),
+           "--out", str(out), "--overwrite"]
+    for s in RUN_SETS:
+        cmd += ["--set", s]
+    return cmd
 
 
 def cpu_model() -> str:
@@ -53,21 +79,24 @@ def cpu_model() -> str:
     return "unknown"
 
 
-def wall_times(cmd: list[str], runs: int) -> list[float]:
-    """Wall-clock seconds of ``runs`` runs of ``cmd`` after one untimed warm-up run."""
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+def times(cmd: list[str], runs: int, env: dict | None = None) -> list[tuple[float, float]]:
+    """(wall s, user CPU s) of ``runs`` runs of ``cmd`` after one untimed warm-up run."""
+    kw = dict(check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+              env={**os.environ, **(env or {})})
+    subprocess.run(cmd, **kw)
     out = []
     for _ in range(runs):
+        r0 = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
         t0 = time.perf_counter()
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        out.append(time.perf_counter() - t0)
+        subprocess.run(cmd, **kw)
+        out.append((time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - r0))
     return out
 
 
-def top_imports(n: int = 12) -> list[tuple[int, str]]:
-    """The ``n`` slowest imports (cumulative microseconds) of ``granflow --help``, from
+def top_imports(code: str = CLI, args: tuple[str, ...] = ("--help",), n: int = 12) -> list[tuple[int, str]]:
+    """The ``n`` slowest imports (cumulative microseconds) of ``python -c code args``, from
     ``python -X importtime``."""
-    res = subprocess.run([sys.executable, "-X", "importtime", "-c", CLI, "--help"],
+    res = subprocess.run([sys.executable, "-X", "importtime", "-c", code, *args],
                          capture_output=True, text=True, check=True)
     rows = []
     for line in res.stderr.splitlines():
@@ -81,22 +110,34 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=5, help="timed runs per command (default 5)")
     ap.add_argument("--importtime", action="store_true",
-                    help="also list the slowest imports of granflow --help (python -X importtime)")
+                    help="also list the slowest imports of granflow --help (python -X importtime), "
+                         "and with --run those of granflow.casekit.runner")
+    ap.add_argument("--run", action="store_true",
+                    help="also time the two-step granflow run (the fixed cost of a run)")
     args = ap.parse_args(argv)
 
     print(f"CPU: {cpu_model()} ({os.cpu_count()} logical cores), Python {sys.version.split()[0]}, "
           f"median of {args.runs} runs")
-    results = {name: wall_times(cmd, args.runs) for name, cmd in COMMANDS.items()}
-    ref = statistics.median(results[REFERENCE])
-    print("| command | median s | min s | median / reference |")
-    print("|---|---:|---:|---:|")
-    for name, times in results.items():
-        med = statistics.median(times)
-        print(f"| {name} | {med:.3f} | {min(times):.3f} | {med / ref:.1f} |")
+    results = {name: times(cmd, args.runs) for name, cmd in COMMANDS.items()}
+    if args.run:
+        with tempfile.TemporaryDirectory() as tmp:
+            results[RUN_NAME] = times(run_command(Path(tmp) / "run"), args.runs, RUN_ENV)
+    ref = statistics.median(w for w, _ in results[REFERENCE])
+    print("| command | median s | min s | median / reference | median user CPU s |")
+    print("|---|---:|---:|---:|---:|")
+    for name, tw in results.items():
+        wall = [w for w, _ in tw]
+        med = statistics.median(wall)
+        print(f"| {name} | {med:.3f} | {min(wall):.3f} | {med / ref:.1f} | "
+              f"{statistics.median(u for _, u in tw):.3f} |")
     if args.importtime:
         print("\nslowest imports of granflow --help (cumulative ms):")
         for us, name in top_imports():
             print(f"  {us / 1000:8.1f}  {name}")
+        if args.run:
+            print("\nslowest imports of import granflow.casekit.runner (a run's, cumulative ms):")
+            for us, name in top_imports("import granflow.casekit.runner", ()):
+                print(f"  {us / 1000:8.1f}  {name}")
     return 0
 
 
