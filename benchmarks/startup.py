@@ -22,9 +22,10 @@ Commands (``python`` is this interpreter, ``sys.executable``):
 
 The granflow imported is the one on this interpreter's path: to measure a source tree, set
 ``PYTHONPATH=<tree>/src``. One warm-up run of each command precedes the timed runs (file-system
-cache, ``__pycache__``, Numba's kernel cache). Without ``__pycache__`` (``PYTHONDONTWRITEBYTECODE``
-set and no compiled files, as in an editable install on such a machine) every run compiles
-granflow's sources, 0.1-0.2 s of a run on the 2-core development machine.
+cache, Numba's kernel cache), after :func:`compile_bytecode` has written granflow's ``__pycache__``:
+an installed package has its bytecode (pip compiles it), an editable install writes it on first
+import -- unless ``PYTHONDONTWRITEBYTECODE`` is set, as on the development machine, where every
+process then compiled granflow's ~100 modules again (0.1-0.2 s of a run's CPU).
 
 Run:   python benchmarks/startup.py [--runs 5] [--importtime] [--run]
 Time:  ~10 s for 5 runs; ~25 s more with --run.
@@ -32,6 +33,8 @@ Time:  ~10 s for 5 runs; ~25 s more with --run.
 from __future__ import annotations
 
 import argparse
+import compileall
+import importlib.util
 import os
 import resource
 import statistics
@@ -79,6 +82,19 @@ def cpu_model() -> str:
     return "unknown"
 
 
+def compile_bytecode() -> str:
+    """Write the ``__pycache__`` of the granflow package that this interpreter imports (the one
+    the timed processes import, same path) and say where; a stale file is rewritten, a current
+    one kept. Python checks a file against its source's time stamp and size, so this cannot make
+    a process run old code."""
+    spec = importlib.util.find_spec("granflow")
+    if spec is None or not spec.submodule_search_locations:
+        return "granflow not found: no bytecode written"
+    folder = spec.submodule_search_locations[0]
+    ok = compileall.compile_dir(folder, quiet=1)
+    return f"bytecode of {folder} {'up to date' if ok else 'NOT all compiled'}"
+
+
 def times(cmd: list[str], runs: int, env: dict | None = None) -> list[tuple[float, float]]:
     """(wall s, user CPU s) of ``runs`` runs of ``cmd`` after one untimed warm-up run."""
     kw = dict(check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
@@ -117,7 +133,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     print(f"CPU: {cpu_model()} ({os.cpu_count()} logical cores), Python {sys.version.split()[0]}, "
-          f"median of {args.runs} runs")
+          f"median of {args.runs} runs; {compile_bytecode()}")
     results = {name: times(cmd, args.runs) for name, cmd in COMMANDS.items()}
     if args.run:
         with tempfile.TemporaryDirectory() as tmp:

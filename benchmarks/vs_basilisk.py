@@ -29,8 +29,11 @@ load over all codes). Per run: wall time (``time.perf_counter``) and user CPU ti
 imports and set-up; the table also gives granflow's in-run wall time, summary.json's ``wall_s``,
 without them). The table gives medians over the rounds, the ratios granflow / Basilisk of those
 medians, and cell-steps per user-CPU second (n^2 x accepted steps / user s). One untimed warm-up
-run of each granflow variant (16^2, a few steps) fills Numba's cache first. Asserts nothing
-about time.
+run of each granflow variant (16^2, a few steps) fills Numba's cache first, after granflow's
+``__pycache__`` is written (startup.compile_bytecode: an installed package has its bytecode; with
+``PYTHONDONTWRITEBYTECODE`` set and none written, every run compiled granflow's sources again,
+0.1-0.2 s of user CPU on the 2-core development machine; tables before 2026-12-06 session 22 were
+measured so). Asserts nothing about time.
 
 Same deposit rule on both codes: h(x) = sum_z phi dz / phi_max per column (Basilisk: the VOF
 fraction), front = right edge of the last column with h > 0.05 H0. The script prints the fronts
@@ -62,7 +65,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from startup import CLI, cpu_model  # noqa: E402  (the same CPU-model reader and CLI launcher)
+from startup import CLI, compile_bytecode, cpu_model  # noqa: E402  (shared with startup.py)
 
 CASE_FILE = ROOT / "examples" / "lagree_column.toml"
 EXECUTABLE = "granular_column_bench"
@@ -199,7 +202,9 @@ WARM_UP_ASPECT = 1.42
 
 
 def warm_up(variants: list[str], tmp: Path) -> None:
-    """One untimed short run of each variant (Numba compiles its kernels into the cache once)."""
+    """granflow's bytecode written, then one untimed short run of each variant (Numba compiles
+    its kernels into the cache once)."""
+    print(compile_bytecode())
     for v in variants:
         out = tmp / f"warmup_{v}"
         timed(granflow_cmd(16, WARM_UP_ASPECT, v, out, stop_time=0.05), cwd=ROOT, env={**os.environ, **ENV})
