@@ -11,7 +11,7 @@ from functools import cached_property
 from typing import Any, Mapping
 
 import numpy as np
-from scipy.ndimage import maximum_filter
+from granflow.max_filter import maximum_filter
 
 from granflow.errors import GranflowInputError
 from granflow.model_options import (

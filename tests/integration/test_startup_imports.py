@@ -49,6 +49,16 @@ def test_a_run_does_not_import_scipy_optimize():
     assert res.stdout.split() == ["False"]
 
 
+def test_a_run_does_not_import_scipy_ndimage():
+    # the velocity band's dilations use granflow.max_filter (scipy.ndimage's import parses ~170
+    # docstrings: 0.07-0.17 s of every run)
+    code = ("import sys, granflow.casekit.runner, granflow.cli, granflow.cases, granflow.model; "
+            "print('scipy.ndimage' in sys.modules)")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["False"]
+
+
 def test_a_run_does_not_import_xarray():
     # a run writes with netCDF4; the ds.granflow accessor (xarray + pandas, 0.3-0.5 s) is
     # registered only when xarray is imported (granflow.output.xarray_hook)
