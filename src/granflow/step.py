@@ -231,7 +231,21 @@ def hint_viscosity(model, eta) -> np.ndarray:
     return np.maximum(eta, model.ambient.eta_a)
 
 
-def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, window, fluxes=None):
+def _momentum_flux(model, fx, fz, vel_n, window, second_order: bool = True):
+    """``(A, div_dual F)`` of the solid fluxes ``(fx, fz)`` carrying ``vel_n`` (the plane or the
+    axisymmetric form; :func:`consistent_inertia`), MUSCL or first-order face values."""
+    if model.unknown_weight is not None:  # axisymmetric: the fluxes through the rings' areas
+        A, div_dual = mt.axisymmetric_transport(model.ops, fx, fz, vel_n, window=window, theta=model.momentum_theta,
+                                                second_order=second_order)
+        return A / model.unknown_weight, div_dual / model.unknown_weight
+    A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta,
+                                    second_order=second_order,
+                                    base=None if model.solid is None else model.base_index)
+    return A, mt.dual_mass_divergence(model.ops, fx, fz)
+
+
+def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, window, fluxes=None,
+                       bounded: bool = False):
     """Inertia and right-hand side of the consistent momentum transport for the iterate ``u_k``
     (:mod:`granflow.physics.momentum_transport`): the phi transport of a step with ``u_k`` gives
     the solid fluxes ``F_k`` (:meth:`granflow.model.Model.transport_fluxes`, the fluxes only);
@@ -242,15 +256,15 @@ def consistent_inertia(model, vel_n, u_k, dt: float, rhs_0, phi, c, phi_f, windo
     surface); ``window`` the :func:`granflow.physics.material.material_window` of ``(c, phi)``,
     the same at every sweep of a step (None: the whole grid; the indicator's one-stage fluxes
     vanish beyond it, v1's two-stage MUSCL fluxes are not cut); ``fluxes`` those of ``u_k`` if
-    already known. Returns ``(m_k, (A, div_dual F_k), rhs)``."""
+    already known. ``bounded`` (one solve per step): the dual cells that lose more than three
+    quarters of their grains in the step take first-order face values
+    (:func:`granflow.physics.momentum_transport.draining`). Returns ``(m_k, (A, div_dual F_k), rhs)``."""
     fx, fz = model.transport_fluxes(phi, u_k, dt, c, window) if fluxes is None else fluxes
-    if model.unknown_weight is not None:  # axisymmetric: the fluxes through the rings' areas
-        A, div_dual = mt.axisymmetric_transport(model.ops, fx, fz, vel_n, window=window, theta=model.momentum_theta)
-        A, div_dual = A / model.unknown_weight, div_dual / model.unknown_weight
-    else:
-        A = mt.momentum_flux_divergence(model.grid, fx, fz, vel_n, window=window, theta=model.momentum_theta,
-                                        base=None if model.solid is None else model.base_index)
-        div_dual = mt.dual_mass_divergence(model.ops, fx, fz)
+    A, div_dual = _momentum_flux(model, fx, fz, vel_n, window)
+    if bounded:
+        drained = mt.draining(phi_f, div_dual, dt)
+        if drained.any():
+            A = np.where(drained, _momentum_flux(model, fx, fz, vel_n, window, second_order=False)[0], A)
     rho = model.material.rho_s * np.maximum(phi_f - dt * div_dual, 0.0) + model.ambient.rho_a
     return rho, (A, div_dual), rhs_0 - model.material.rho_s * A
 
@@ -350,7 +364,8 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         if consistent:
             rho_k, flux_div, rhs_u = consistent_inertia(model, state.vel, u_k, dt, ex.rhs_u, state.phi,
                                                         state.c, phi_f_n, window_n,
-                                                        ex.fluxes_n if sweeps == 1 else None)
+                                                        ex.fluxes_n if sweeps == 1 else None,
+                                                        bounded=model.picard.max_sweeps == 1)
         p_eval = p_k if ex.thin is None else np.where(ex.thin, ex.p_fric, p_k)
         S_k = sweep_strain_rate(model, ex, u_k, share)
         coef = model.coefficients(ex.phi_e, p_eval, S_k, dt, dense, tangent=sweeps == 1)
