@@ -200,9 +200,12 @@ class FieldMaps:
                 return {k[len(LINEAR_SOLVER_PREFIX):]: v for k, v in d.items() if k.startswith(LINEAR_SOLVER_PREFIX)}
             self.linear_solver.restore_checkpoint(own(arrays), own(scalars))
 
-    def grain_cells(self, phi, margin: int) -> np.ndarray:
-        """Flat mask of the cells within ``margin`` cells of grains (``phi > PHI_TRACE phi_max``)."""
+    def grain_cells(self, phi, margin: int, cells=None) -> np.ndarray:
+        """Flat mask of the cells within ``margin`` cells of grains (``phi > PHI_TRACE phi_max``)
+        or of the flat mask ``cells``."""
         grains = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape) > PHI_TRACE * self.material.phi_max
+        if cells is not None:
+            grains |= np.asarray(cells, dtype=bool).reshape(self.grid.cell_shape)
         mode = ("wrap", "constant") if self.grid.periodic_x else "constant"
         return maximum_filter(grains, size=2 * margin + 1, mode=mode).ravel()
 
