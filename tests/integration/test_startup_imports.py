@@ -39,34 +39,28 @@ def test_config_overrides_do_not_import_the_schema():
     assert res.stdout.split() == ["False", "False"]
 
 
-def test_a_run_does_not_import_scipy_optimize():
+RUN_PATH = "granflow.casekit.runner, granflow.cli, granflow.cases, granflow.model, granflow.output"
+"""What a run imports."""
+NOT_ON_THE_RUN_PATH = (
     # the two brentq root finds (dilatancy's backward-Euler layer step, the defluidisation
     # half-life) import it where they run: it was 0.16-0.2 s of every run's start-up
-    code = ("import sys, granflow.casekit.runner, granflow.cli, granflow.cases; "
-            "print('scipy.optimize' in sys.modules)")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
-    assert res.stdout.split() == ["False"]
-
-
-def test_a_run_does_not_import_scipy_ndimage():
+    "scipy.optimize",
     # the velocity band's dilations use granflow.max_filter (scipy.ndimage's import parses ~170
     # docstrings: 0.07-0.17 s of every run)
-    code = ("import sys, granflow.casekit.runner, granflow.cli, granflow.cases, granflow.model; "
-            "print('scipy.ndimage' in sys.modules)")
+    "scipy.ndimage",
+    # a run writes with netCDF4; the ds.granflow accessor (xarray + pandas, 0.3-0.5 s) is
+    # registered only when xarray is imported (granflow.output.xarray_hook)
+    "xarray",
+    "pandas",
+)
+
+
+@pytest.mark.parametrize("module", NOT_ON_THE_RUN_PATH)
+def test_a_run_does_not_import(module):
+    code = f"import sys, {RUN_PATH}; print({module!r} in sys.modules)"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
     assert res.stdout.split() == ["False"]
-
-
-def test_a_run_does_not_import_xarray():
-    # a run writes with netCDF4; the ds.granflow accessor (xarray + pandas, 0.3-0.5 s) is
-    # registered only when xarray is imported (granflow.output.xarray_hook)
-    code = ("import sys, granflow.casekit.runner, granflow.cli, granflow.cases, granflow.output; "
-            "print('xarray' in sys.modules, 'pandas' in sys.modules)")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
-    assert res.stdout.split() == ["False", "False"]
 
 
 ACCESSOR_PROBE = """
