@@ -45,7 +45,9 @@ V1 = dict(surface="threshold", advection="upwind")
 
 def dp_model(nx: int, nz: int, Lx: float, Lz: float, **options) -> Model:
     clo = make_closure("drucker_prager", material=MATERIAL, delta_deg=26.74)
-    # systems on the whole grid (the AMG's velocity vector): no velocity band
+    # systems on the whole grid (the AMG's velocity vector): no velocity band; the Picard loop
+    # (the fixtures capture a step's sweeps)
+    options.setdefault("picard", {"max_sweeps": 10, "predictor": "previous"})
     return Model(Grid(nx=nx, nz=nz, Lx=Lx, Lz=Lz), clo, ambient={"velocity_band": 0}, **options)
 
 

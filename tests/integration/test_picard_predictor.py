@@ -46,7 +46,7 @@ def test_first_iterate_extrapolates_the_last_steps_acceleration():
                                         1.0), [1.5, 2.0, -0.5])
     assert np.array_equal(first_iterate(model, SimpleNamespace(vel=vel, accel=None, accel_dt=None, accel_prev=None),
                                         0.25), vel)
-    previous = first_iterate(SimpleNamespace(picard=PicardParams()), state, 0.25)
+    previous = first_iterate(SimpleNamespace(picard=PicardParams(predictor="previous")), state, 0.25)
     assert np.array_equal(previous, vel) and previous is not vel  # a copy: the loop overwrites it
 
 
@@ -67,7 +67,8 @@ def test_one_solve_per_step_iterates_the_step_without_an_acceleration():
     no_accel, accel = SimpleNamespace(accel=None), SimpleNamespace(accel=np.zeros(3))
     one = SimpleNamespace(picard=PicardParams(max_sweeps=1, predictor="extrapolated"))
     assert sweep_cap(one, no_accel) == STARTUP_SWEEPS > 10 and sweep_cap(one, accel) == 1
-    for picard in (PicardParams(max_sweeps=1), PicardParams(), PicardParams(max_sweeps=2, predictor="extrapolated")):
+    for picard in (PicardParams(max_sweeps=1, predictor="previous"), PicardParams(max_sweeps=10, predictor="previous"),
+                   PicardParams(max_sweeps=2, predictor="extrapolated")):
         for state in (no_accel, accel):
             assert sweep_cap(SimpleNamespace(picard=picard), state) == picard.max_sweeps
 
