@@ -506,3 +506,32 @@ def test_kept_pattern_checkpoint_entries_are_checked():
     bad = {**arrays, "model.linear_solver.analysis.indices": arrays["model.linear_solver.analysis.indices"] + 10**6}
     with pytest.raises(GranflowInputError, match="analysis.indices"):
         _margin_column()[0].restore_checkpoint(bad, scalars)
+
+
+@pytest.mark.parametrize("refinements", [0, 2])
+def test_a_kept_analysis_is_refined_to_a_fresh_ones_accuracy(monkeypatch, refinements):
+    """The scaling and matching of an earlier step's matrix leave residuals of ~1e-10 (the energy
+    budget's split identity then holds only to that); iterative refinement with the kept factors
+    (``KEPT_REFINEMENTS``) brings every solve to ``REFINE_TARGET``. Control: none, and the kept
+    analyses' residuals stay above it."""
+    import granflow.solvers.pardiso as pmod
+
+    monkeypatch.setattr(pmod, "KEPT_REFINEMENTS", refinements)
+    model, state = _margin_column()
+    solver, residuals = model.linear_solver, []
+    solve = solver.solve
+
+    def spy(*args, **kw):
+        x, info = solve(*args, **kw)
+        residuals.append((info.rebuilt, info.residual))
+        return x, info
+
+    monkeypatch.setattr(solver, "solve", spy)
+    for _ in range(8):
+        assert not model.advance(state, 2e-3).failed
+    kept = [r for rebuilt, r in residuals if not rebuilt]
+    assert kept and solver.analyses < 8
+    if refinements:
+        assert max(kept) <= pmod.REFINE_TARGET and solver.refinements > 0
+    else:
+        assert max(kept) > pmod.REFINE_TARGET and solver.refinements == 0
