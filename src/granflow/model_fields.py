@@ -11,9 +11,9 @@ from functools import cached_property
 from typing import Any, Mapping
 
 import numpy as np
-from granflow.max_filter import maximum_filter
 
 from granflow.errors import GranflowInputError
+from granflow.max_filter import maximum_filter
 from granflow.model_options import (
     ANALYSIS_STEPS,
     INTERFACE_RADIUS,
