@@ -4,6 +4,8 @@ the fluidised column's bulk is ahead of the dry one's (its basal friction is car
 both clear of the channel's end."""
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from _scripts import load_script
@@ -52,3 +54,19 @@ def test_converged_uses_the_three_finest_levels(aspect):
     assert c["dx_m"] == [0.04, 0.02, 0.01] and c["x0.9"]["method"] == "3-level Richardson"
     assert c["x0.9"]["value"] == pytest.approx(2.0) and c["x0.9"]["order"] == pytest.approx(1.0)
     assert c["runout"]["value"] == pytest.approx(1.5) and "| 1 | 4, 2, 1 |" in aspect.converged_table(rows)
+
+
+def test_several_aspects_in_one_call_store_each_row_once(aspect, monkeypatch, tmp_path):
+    """Regression: ``main(["--aspects", "1,2"])`` stored the second aspect's rows twice (the merged
+    list, which already held the stored row of a = 2, was extended by the new one)."""
+    store = tmp_path / "aspect.json"
+    stored = [_row(s, a, 0.02, 0.5, 0.3, 0.4) for a in (1.0, 2.0, 4.0) for s in ("fluidised", "dry")]
+    store.write_text(json.dumps({"rows": stored}))
+    monkeypatch.setattr(aspect, "ASPECT_JSON", store)
+    monkeypatch.setattr(aspect, "run", lambda dx, quick, aspects: [
+        _row(s, aspects[0], dx, 2.0, 1.2, 1.8) for s in ("fluidised", "dry")])
+    aspect.main(["--aspects", "1,2", "--dx", "0.02"])
+    rows = json.loads(store.read_text())["rows"]
+    keys = [(r["a"], r["dx_m"], r["state"]) for r in rows]
+    assert len(keys) == len(set(keys)) == 6
+    assert {r["a"]: r["runout_rest_m"] for r in rows} == {1.0: 2.0, 2.0: 2.0, 4.0: 0.5}

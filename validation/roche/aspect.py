@@ -150,12 +150,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(table(rows) + "\n\n" + converged_table(rows))
         return rows
     aspects = tuple(float(a) for a in args.aspects.split(",")) if args.aspects else None
-    rows = []
+    rows = new = []
     for dx in ([None] if args.quick else [float(v) for v in args.dx.split(",")]):
         for a in aspects or ASPECTS if not args.quick else (None,):
-            rows += run(dx, args.quick, None if a is None else (a,))
+            new = new + run(dx, args.quick, None if a is None else (a,))
+            rows = new
             if not args.quick:  # stored after each aspect ratio: a later failure loses nothing
-                rows = merged(rows)
+                rows = merged(new)  # this call's rows over the stored ones (each (a, dx) once)
                 ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows), "converged": converged(rows)},
                                                   indent=1) + "\n")
     print(table(rows) + "\n\n" + converged_table(rows))
