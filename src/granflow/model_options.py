@@ -51,6 +51,11 @@ step: k = 1 / 2 / 4 / 8 took 31.0 / 27.0 / 23.0 / 25.0 s; docs/solver.md "Keepin
 PHI_TRACE = 1.0e-6
 """Cells with ``phi > PHI_TRACE phi_max`` hold grains for the velocity band
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
+PHI_STRANDED = 1.0e-3
+"""Grains outside the kept velocity region (:func:`granflow.region.step_region`) in cells with
+``phi < PHI_STRANDED phi_max`` do not make the region be rebuilt: they stay at rest (their faces
+are not unknowns) until the region is rebuilt for another reason. Such traces, carried away from
+the pile by the ambient, rebuilt the region (and PARDISO's analysis) every 3-4 steps."""
 VISCOUS_ADDITION_FACTOR = 0.5
 """The closure's viscous stress eta_visc S is 2 (eta_visc/2) S in the tau = 2 eta S convention."""
 DEFAULT_PHI_TOLERANCE = 0.05

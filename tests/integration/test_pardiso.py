@@ -535,3 +535,49 @@ def test_a_kept_analysis_is_refined_to_a_fresh_ones_accuracy(monkeypatch, refine
         assert max(kept) <= pmod.REFINE_TARGET and solver.refinements > 0
     else:
         assert max(kept) > pmod.REFINE_TARGET and solver.refinements == 0
+
+
+@pytest.mark.parametrize("trace", [1e-5, 1e-2])
+def test_a_stranded_trace_keeps_the_region(trace):
+    """``PHI_STRANDED``: an isolated trace of grains outside the kept region (``phi`` below
+    ``PHI_STRANDED phi_max`` there and in its neighbours) leaves the region and PARDISO's analysis
+    as they are; it stays at rest (its faces are not unknowns) and the grains' volume is conserved.
+    Control: a trace above the limit rebuilds the region, which then holds it."""
+    from granflow.model_options import PHI_STRANDED
+
+    model, state = _margin_column()
+    for _ in range(2):
+        assert not model.advance(state, 2e-3).failed
+    kept = model.region_cache
+    cell = (40, 9)  # far from the pile (x < 0.1 m of 0.3 m, z < 0.1 of 0.125 m)
+    assert not kept[4].reshape(model.grid.cell_shape)[cell]
+    state.phi[cell] = trace * PHI_MAX
+    if state.c is not None:
+        state.c[cell] = trace
+    volume = state.phi.sum()
+    for _ in range(3):  # short steps: the control's lone trace, once moving, falls fast
+        assert not model.advance(state, 2e-4).failed
+    stranded = trace < PHI_STRANDED
+    assert (model.region_cache is kept) == stranded
+    assert (state.phi[cell] == trace * PHI_MAX) == stranded
+    assert model.region_cache[4].reshape(model.grid.cell_shape)[cell] != stranded
+    assert state.phi.sum() == pytest.approx(volume, rel=1e-12)
+
+
+def test_only_isolated_traces_are_stranded():
+    """The thin tip of a front (a trace next to a fuller cell) is not stranded."""
+    from granflow.region import _stranded
+
+    shape, limit = (6, 5), 1e-3
+    phi = np.zeros(shape)
+    phi[2, 2] = 1e-4
+    flat = np.array([np.ravel_multi_index((2, 2), shape)])
+    assert _stranded(shape, phi.ravel(), flat, limit)
+    for neighbour in ((1, 1), (3, 3), (2, 3), (1, 2)):
+        tip = phi.copy()
+        tip[neighbour] = 0.5
+        assert not _stranded(shape, tip.ravel(), flat, limit), neighbour
+    phi[2, 2] = 2e-3
+    assert not _stranded(shape, phi.ravel(), flat, limit)
+    corner = np.zeros(shape)  # neighbours off the grid are ignored
+    assert _stranded(shape, corner.ravel(), np.array([0, shape[0] * shape[1] - 1]), limit)
