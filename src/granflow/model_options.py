@@ -42,12 +42,15 @@ drags on the surface (viscous stress ~ eta_a u / (band dx)); measured on the Lag
 (0.05 H0 front), band 6 -0.6 % / -0.45 %, band 10 -0.16 % / -0.2 %; the a = 1.42 run at 32^2
 moved 5 % with band 3 and not with 6 or 10. Cost at 128^2: 11.4 s (3), 11.5 s (6), 12.4 s (10);
 at 256^2 39.8 s (3), 49.1 s (10) (benchmarks/README.md)."""
-ANALYSIS_STEPS = 4
+ANALYSIS_STEPS = 16
 """Steps over which PARDISO keeps an analysis (ordering, scaling, matching) of an unchanged pattern
 when :attr:`AmbientParams.velocity_band_margin` > 0. Its scaling and matching are those of the
 matrix it analysed: kept longer, the factorisation and the solve grow (Lagree column, 256^2, one
 solve per step, margin 3, single runs of a scratch version that forgot the analysis every k-th
-step: k = 1 / 2 / 4 / 8 took 31.0 / 27.0 / 23.0 / 25.0 s; docs/solver.md "Keeping the pattern")."""
+step: k = 1 / 2 / 4 / 8 took 31.0 / 27.0 / 23.0 / 25.0 s; docs/solver.md "Keeping the pattern").
+16 since session 24, when isolated traces stopped rebuilding the region (:data:`PHI_STRANDED`) and
+the window, not the pattern, ended most analyses: user CPU 4 -> 16 at 128^2 4.63 / 4.68 / 4.51 ->
+4.39 / 4.54 / 4.36 s, at 256^2 16.03 / 16.08 -> 15.72 / 15.35 s (alternated, same fronts)."""
 PHI_TRACE = 1.0e-6
 """Cells with ``phi > PHI_TRACE phi_max`` hold grains for the velocity band
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
