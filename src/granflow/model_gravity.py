@@ -7,6 +7,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from granflow.physics.gravity_kernel import gravity_weights_compiled, kernel_available
+
+
+def gravity_weights_numpy(centred, flux, vel, gvec, rho_s: float, u_b: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(force, drag)`` of :meth:`GravityWeights.gravity_split` from the centred fraction, the
+    packed solid flux and the velocity at the unknowns, the gravity vector ``gvec`` there, ``rho_s``
+    and the blend velocity ``u_b``: the NumPy reference of
+    :func:`granflow.physics.gravity_kernel.gravity_weights_compiled` (equal bit for bit,
+    tests/unit/test_gravity_kernel.py)."""
+    moving = vel != 0.0
+    upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
+    phi_f = centred + (upwind - centred) * np.minimum(1.0, np.abs(vel) / u_b)
+    drag = -rho_s * gvec * (upwind - centred) * np.sign(vel) / u_b
+    implicit = (np.abs(vel) < u_b) & (drag > 0.0)
+    return rho_s * gvec * np.where(implicit, centred, phi_f), np.where(implicit, drag, 0.0)
 
 
 class GravityWeights:
@@ -46,16 +61,14 @@ class GravityWeights:
         rho_s = self.material.rho_s
         phi = np.asarray(phi, dtype=float).reshape(g.cell_shape)
         vel = np.asarray(vel, dtype=float)
+        centred = self.face_fraction(phi, c)
+        if self.consistent_gravity:
+            flux = g.pack_velocity(*(self.transport_fluxes(phi, vel, dt, c) if fluxes is None else fluxes))
+            u_b = self.blend_velocity(dt)
+            if kernel_available():  # the same operations in one pass (physics.gravity_kernel)
+                return gravity_weights_compiled(centred, flux, vel, *self.gravity, g.n_u, rho_s, u_b)
         gvec = np.empty(g.n_unknowns)
         gvec[g.u_slice], gvec[g.w_slice] = self.gravity
-        centred = self.face_fraction(phi, c)
         if not self.consistent_gravity:
             return rho_s * gvec * centred, np.zeros(g.n_unknowns)
-        flux = g.pack_velocity(*(self.transport_fluxes(phi, vel, dt, c) if fluxes is None else fluxes))
-        moving = vel != 0.0
-        upwind = np.where(moving, flux / np.where(moving, vel, 1.0), centred)
-        u_b = self.blend_velocity(dt)
-        phi_f = centred + (upwind - centred) * np.minimum(1.0, np.abs(vel) / u_b)
-        drag = -rho_s * gvec * (upwind - centred) * np.sign(vel) / u_b
-        implicit = (np.abs(vel) < u_b) & (drag > 0.0)
-        return rho_s * gvec * np.where(implicit, centred, phi_f), np.where(implicit, drag, 0.0)
+        return gravity_weights_numpy(centred, flux, vel, gvec, rho_s, u_b)
