@@ -189,7 +189,7 @@ class AxisymmetricOperators:
     def strain_rows(self) -> tuple[sp.csr_matrix, sp.csr_matrix, sp.csr_matrix]:
         """The three pair rows scaled by ``sqrt(2/3)`` [m^-1]: ``|S|^2 = sum_k (row_k u)^2 / 4 +
         S_rz^2``, the form of the plane ``(ec u)^2 / 4 + S_xz^2`` (one row there); what the
-        strain-rate evaluations of the solver take (:class:`granflow.operators.StrainRateOn` ``rows``,
+        strain-rate evaluations of the solver take (:class:`granflow.strain_rate.StrainRate` ``rows``,
         :func:`granflow.physics.wall_friction.base_strain_rate_norm`)."""
         scale = np.sqrt(DEVIATOR_WEIGHT)
         return tuple((scale * e).tocsr() for e in self.pairs())

@@ -28,9 +28,9 @@ from functools import cached_property
 import numpy as np
 
 from granflow.axisymmetric import AxisymmetricOperators
-from granflow.operators import StrainRateOn
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
+from granflow.strain_rate import StrainRate
 
 
 class GeometryWeights:
@@ -85,7 +85,10 @@ class GeometryWeights:
         :meth:`granflow.operators.Operators.strain_rate_on`)."""
         if self.axisymmetric_operators is None:
             return self.ops.strain_rate_on(cells)
-        return StrainRateOn.of(self.ops, cells, self.strain_rows)
+        rate = self.__dict__.get("_strain_rate")
+        if rate is None or rate.source is not self.strain_rows:  # built once for the rows
+            rate = self.__dict__["_strain_rate"] = StrainRate(self.ops, self.strain_rows)
+        return rate.on(cells)
 
     def dual_mean(self, phi) -> np.ndarray:
         """The cells' field at the velocity unknowns as the volume-weighted mean of each face's

@@ -54,12 +54,17 @@ NUMERICS.md §2 (operators), §8 (wall conditions), §9 (energy identity), §13 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 
 from granflow.errors import GranflowInputError
 from granflow.grid import Grid, Side, VelocityBC, VelocityBCs
+
+if TYPE_CHECKING:
+    from granflow.strain_rate import StrainRate, StrainRateOn
 
 GHOST_SIGN = {VelocityBC.NO_SLIP: -1.0, VelocityBC.FREE_SLIP: 1.0, VelocityBC.COULOMB: -1.0,
               VelocityBC.OUTFLOW: 1.0}
@@ -394,10 +399,18 @@ class Operators:
         vel = self._velocity(vel)
         return 0.25 * (self.ec @ vel) ** 2 + 0.25 * (self.node_to_cell @ (self.en @ vel) ** 2)
 
+    @cached_property
+    def strain_rate(self) -> StrainRate:
+        """:class:`granflow.strain_rate.StrainRate` of these operators (built once)."""
+        from granflow.strain_rate import StrainRate
+
+        return StrainRate(self)
+
     def strain_rate_on(self, cells) -> StrainRateOn:
         """:meth:`strain_rate_norm` on the cells of the bool mask ``cells`` only (see
-        :class:`StrainRateOn`): the Picard sweeps need ``|S|`` where the closure is evaluated."""
-        return StrainRateOn.of(self, cells)
+        :class:`granflow.strain_rate.StrainRateOn`): the Picard sweeps need ``|S|`` where the
+        closure is evaluated."""
+        return self.strain_rate.on(cells)
 
     def strain_rate_norm(self, vel) -> np.ndarray:
         """``|S| = sqrt(S:S/2)`` at cell centres [s^-1], shape ``(n_cells,)``.
@@ -430,38 +443,6 @@ class Operators:
                 f"p must have shape {g.cell_shape} or ({g.n_cells},), got {a.shape}"
             )
         return self.grad @ a.ravel()
-
-
-class StrainRateOn:
-    """``|S|`` of :meth:`Operators.strain_rate_norm` at the cells of a mask, 0 elsewhere, from
-    the rows of ``ec`` and ``node_to_cell`` of those cells and the rows of ``en`` of the nodes
-    they use (built once per mask, e.g. per step; the whole-grid version costs 2.7 ms a call at
-    256^2, where the material's cells are a fraction of the box). Each kept row holds the entries
-    of the whole operator in their order, so the values equal :meth:`Operators.strain_rate_norm`'s
-    bit for bit (tests/unit/test_operators.py)."""
-
-    def __init__(self, ops: Operators, cells: np.ndarray, ec, en, n2c) -> None:
-        self.ops, self.cells, self.ec, self.en, self.n2c = ops, cells, ec, en, n2c
-
-    @classmethod
-    def of(cls, ops: Operators, cells, rows=None) -> StrainRateOn:
-        """``rows``: several cell rows ``R_k`` in place of ``ec``, ``|S|^2 = sum (R_k u)^2/4 + ...``
-        (the axisymmetric grid's, :attr:`granflow.model.Model.strain_rows`)."""
-        cells = np.flatnonzero(np.asarray(cells, dtype=bool).ravel())
-        n2c = sp.csr_matrix(ops.node_to_cell)[cells]
-        nodes = sorted_unique(n2c.indices)
-        renum = np.zeros(ops.node_to_cell.shape[1], dtype=n2c.indices.dtype)
-        renum[nodes] = np.arange(nodes.size)  # increasing: each row keeps its entry order
-        n2c = sp.csr_matrix((n2c.data, renum[n2c.indices], n2c.indptr), shape=(cells.size, nodes.size))
-        ec = sp.csr_matrix(ops.ec)[cells] if rows is None else tuple(sp.csr_matrix(r)[cells] for r in rows)
-        return cls(ops, cells, ec, sp.csr_matrix(ops.en)[nodes], n2c)
-
-    def __call__(self, vel) -> np.ndarray:
-        vel = self.ops._velocity(vel)
-        out = np.zeros(self.ops.grid.n_cells)
-        diag = sum((r @ vel) ** 2 for r in self.ec) if isinstance(self.ec, tuple) else (self.ec @ vel) ** 2
-        out[self.cells] = np.sqrt(0.25 * diag + 0.25 * (self.n2c @ (self.en @ vel) ** 2))
-        return out
 
 
 def sorted_unique(a: np.ndarray) -> np.ndarray:

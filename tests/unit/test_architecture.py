@@ -22,7 +22,7 @@ import pytest
 from _scripts import ROOT  # the repository (tests/ holds tiers)
 
 SRC = ROOT / "src" / "granflow"
-CORE = ("grid", "operators", "topography", "axisymmetric", "solvers", "physics", "rheology", "model", "model_geometry",
+CORE = ("grid", "operators", "strain_rate", "_strain_numba", "topography", "axisymmetric", "solvers", "physics", "rheology", "model", "model_geometry",
         "state", "step", "step_energy", "step_retry", "simulation", "active_set", "predictor",
         "schedules")
 TOP = ("cases", "casekit", "cli", "plotting", "closure_figures", "case_figures", "sweep", "sweep_spec", "sweep_files")
