@@ -11,6 +11,8 @@ import pytest
 import granflow.model_gravity as MG
 from granflow.physics.gravity_kernel import gravity_weights_compiled, kernel_available
 
+from _kernels import kernel_and_reference_runs  # noqa: E402  (tests/ holds tiers)
+
 pytestmark = pytest.mark.skipif(not kernel_available(), reason="Numba not installed")
 
 
@@ -93,32 +95,10 @@ def test_degenerate_inputs_agree():
     agree(centred.astype(np.float32), flux, vel, 0.3, -9.81, 40, 1500.0, 0.01)
 
 
-def _collapse(stop_time):
-    from granflow.cases import CASES
-    from granflow.config import CaseConfig
-
-    cfg = CaseConfig.from_dict({"case": {"name": "lagree_column"}, "grid": {"nx": 24, "nz": 24},
-                                "time": {"stop_time": stop_time, "dt_max": 0.01},
-                                "output": {"figures": False}})
-    return CASES.get("lagree_column").setup(cfg)
-
-
 def test_model_steps_use_the_kernel_and_match_numpy(monkeypatch):
     """A short Lagree collapse (consistent gravity) calls the kernel once a step and gives the
     same fields, bit for bit, as the same run with the NumPy reference forced."""
-    calls = []
-    compiled = MG.gravity_weights_compiled
-    monkeypatch.setattr(MG, "gravity_weights_compiled", lambda *a: calls.append(1) or compiled(*a))
-    fast = _collapse(0.15)
+    fast, _, calls = kernel_and_reference_runs(monkeypatch, MG, "gravity_weights_compiled")
     assert fast.model.consistent_gravity
-    fast.run()
-    assert len(calls) >= len(fast.reports) > 0
-    monkeypatch.setattr(MG, "kernel_available", lambda: False)
-    n_calls = len(calls)
-    ref = _collapse(0.15)
-    ref.run()
-    assert len(calls) == n_calls  # the forced run did not use the kernel
-    assert len(fast.reports) == len(ref.reports)
-    for name in ("phi", "vel", "p", "c"):
-        assert np.array_equal(getattr(fast.state, name), getattr(ref.state, name)), name
+    assert calls >= len(fast.reports) > 0
     assert np.abs(fast.state.vel).max() > 0

@@ -13,6 +13,8 @@ from granflow.grid import Grid
 from granflow.physics.material_kernel import kernel_available
 from granflow.physics.transport import cfl_number, face_velocities
 
+from _kernels import kernel_and_reference_runs, lagree_collapse  # noqa: E402  (tests/ holds tiers)
+
 pytestmark = pytest.mark.skipif(not kernel_available(), reason="Numba not installed")
 
 PHI_MAX = 0.6
@@ -117,19 +119,9 @@ def test_degenerate_inputs_agree():
     agree(narrow, c, phi, *random_velocity(rng, narrow))
 
 
-def _collapse(stop_time):
-    from granflow.cases import CASES
-    from granflow.config import CaseConfig
-
-    cfg = CaseConfig.from_dict({"case": {"name": "lagree_column"}, "grid": {"nx": 24, "nz": 24},
-                                "time": {"stop_time": stop_time, "dt_max": 0.01},
-                                "output": {"figures": False}})
-    return CASES.get("lagree_column").setup(cfg)
-
-
 def test_a_real_collapse_step_agrees():
     """The state of a Lagree column collapse (v2) after a few steps: its fluxes at its velocity."""
-    sim = _collapse(0.3)
+    sim = lagree_collapse(0.3)
     sim.run()
     g, st = sim.model.grid, sim.state
     c, phi = np.asarray(st.c).reshape(g.cell_shape), np.asarray(st.phi).reshape(g.cell_shape)
@@ -150,17 +142,5 @@ def test_model_steps_use_the_kernel_and_match_numpy(monkeypatch):
     """A short Lagree collapse (v2: indicator surface, consistent momentum transport) calls the
     compiled fluxes at every Picard sweep, and gives the same fields, bit for bit, as the same run
     with the NumPy reference forced."""
-    calls = []
-    compiled = M.fluxes_compiled
-    monkeypatch.setattr(M, "fluxes_compiled", lambda *a: calls.append(1) or compiled(*a))
-    fast = _collapse(0.15)
-    fast.run()
-    assert len(calls) >= fast.totals.picard_iterations > 0
-    monkeypatch.setattr(M, "kernel_available", lambda: False)
-    n_calls = len(calls)
-    ref = _collapse(0.15)
-    ref.run()
-    assert len(calls) == n_calls  # the forced run did not use the kernel
-    assert len(fast.reports) == len(ref.reports)
-    for name in ("phi", "vel", "p", "c"):
-        assert np.array_equal(getattr(fast.state, name), getattr(ref.state, name)), name
+    fast, _, calls = kernel_and_reference_runs(monkeypatch, M, "fluxes_compiled")
+    assert calls >= fast.totals.picard_iterations > 0
