@@ -59,9 +59,6 @@ def test_fronts_in_metres_on_a_linear_deposit(dr):
 
 
 # --- the solver: a tiny two-level series (CI) ----------------------------------------------------
-V1 = ("numerics.advection=upwind", "numerics.surface=threshold",
-      "numerics.gravity_blend_velocity=7.5e-4")  # validation/dry_runout/run.py V1_OPTIONS
-"""Scheme v1, pinned where a test checks its threshold surface's one-cell tongue."""
 
 
 def _tiny_series(dr, tmp, extra=()):
@@ -80,8 +77,9 @@ def tiny(dr, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def tiny_v1(dr, tmp_path_factory):
-    """The same series with scheme v1 pinned (~8 s)."""
-    return _tiny_series(dr, tmp_path_factory.mktemp("dry_runout_v1"), V1)
+    """The same series with scheme v1 pinned (``V1_OPTIONS``: the threshold surface, upwind
+    advection and the loop it was measured with; ~8 s)."""
+    return _tiny_series(dr, tmp_path_factory.mktemp("dry_runout_v1"), dr.V1_OPTIONS)
 
 
 def _collapses_spreads_and_rests(recs, arrays, dr, toe_defined=True):
