@@ -26,13 +26,21 @@ from __future__ import annotations
 import numpy as np
 
 
+def never_active(thin, source, dense) -> np.ndarray | None:
+    """The dense cells that never get a row: the thin cells of the indicator surface (``thin``,
+    None for the threshold surface) and a source's cells (``source``: its
+    :class:`granflow.physics.inflow.SourceTerms` or None); None if there are none."""
+    fixed = thin
+    if source is not None:
+        fixed = source.cells & dense if fixed is None else fixed | (source.cells & dense)
+    return fixed
+
+
 def initial_free(ex, dense) -> tuple[np.ndarray, np.ndarray | None]:
-    """The active set's start: every dense cell is active (p < 0 frees it) but the thin cells of
-    the indicator surface and a source's cells, which never get a row (the second mask; None if
-    there are none). ``ex`` is the step's :class:`granflow.step.Explicit`."""
-    fixed = ex.thin
-    if ex.source is not None:
-        fixed = ex.source.cells & dense if fixed is None else fixed | (ex.source.cells & dense)
+    """The active set's start: every dense cell is active (p < 0 frees it) but the cells that
+    never get a row (:func:`never_active`; the second mask, None if there are none). ``ex`` is the
+    step's :class:`granflow.step.Explicit`."""
+    fixed = never_active(ex.thin, ex.source, dense)
     return (np.zeros_like(dense) if fixed is None else fixed.copy()), fixed
 
 

@@ -46,7 +46,7 @@ def band_edge(ops, keep) -> tuple:
     return (ec @ out > 0.0), (en @ out > 0.0)
 
 
-def step_region(model, phi, dense) -> tuple:
+def step_region(model, phi, dense, never_active=None) -> tuple:
     """``(keep, region, band edge, pressure cells)`` of a step: the velocity unknowns
     (:meth:`granflow.model.Model.velocity_region`), their assembly gathers, the stress-free band
     edge (:func:`band_edge`, indicator surface) and the cells whose p is an unknown (None: the
@@ -58,10 +58,12 @@ def step_region(model, phi, dense) -> tuple:
     and kept on the model (``model.region_cache``) for the next steps while the band of
     ``velocity_band`` cells and the dense cells stay inside them, so that the saddle system keeps
     its pattern (and PARDISO its analysis); :meth:`granflow.model.Model.forget_caches` drops them,
-    :func:`region_payload` saves them in checkpoints."""
+    :func:`region_payload` saves them in checkpoints. ``never_active``: the dense cells that get
+    no row this step (:func:`granflow.active_set.never_active`), the only dense cells that may be
+    left outside the kept pressure cells (:func:`_still_covers`)."""
     margin = model.ambient.velocity_band_margin
     cache = model.region_cache
-    if margin and cache is not None and _still_covers(model, cache, phi, dense):
+    if margin and cache is not None and _still_covers(model, cache, phi, dense, never_active):
         return cache[:KEPT_ENTRIES]
     keep = model.velocity_region(phi)
     if keep is None or not margin or model.velocity_band is None:
@@ -76,7 +78,7 @@ def step_region(model, phi, dense) -> tuple:
     return cache[:KEPT_ENTRIES]
 
 
-def _still_covers(model, cache: tuple, phi, dense) -> bool:
+def _still_covers(model, cache: tuple, phi, dense, never_active=None) -> bool:
     """True if the kept region still holds this step's band and dense cells: the grains lie in
     the cells its band covers (``cache[KEPT_ENTRIES]``, :func:`band_cover`) and the dense cells in
     its pressure cells. Equivalent to ``keep <= wide`` with ``keep`` =
@@ -85,10 +87,12 @@ def _still_covers(model, cache: tuple, phi, dense) -> bool:
     (a topography, whose open faces change ``keep``) means: not known, build ``keep``.
 
     Isolated traces outside it (:func:`_stranded`, ``phi < PHI_STRANDED phi_max``) do not count:
-    left at rest until a rebuild. The Lagree column (a = 1.42, 256^2, one solve per step, margin
-    3, to t = 4) rebuilt its region 122 times in 553 steps, nearly all for single-cell traces of
-    phi ~1e-6..3e-4 carried by the ambient one cell a step; with them stranded, 21 times (user
-    CPU 17.5 -> 16.1 s, two pairs; fronts at t = 1..4 unchanged, phi differs by 1e-3 in L1)."""
+    they keep the faces the kept region gives them, at rest beyond it, until a rebuild; a dense
+    one only if it gets no row this step (``never_active``: a dense cell with a row must be a
+    pressure unknown). The Lagree column (a = 1.42, 256^2, one solve per step, margin 3, to
+    t = 4) rebuilt its region 122 times in 553 steps, nearly all for single-cell traces of phi
+    ~1e-6..3e-4 carried by the ambient one cell a step; with them stranded, 21 times (user CPU
+    17.5 -> 16.1 s, two pairs; fronts at t = 1..4 unchanged, phi differs by 1e-3 in L1)."""
     cover = cache[KEPT_ENTRIES]
     if cover is None:
         return False
@@ -96,18 +100,25 @@ def _still_covers(model, cache: tuple, phi, dense) -> bool:
     grains = phi > PHI_TRACE * model.material.phi_max
     if not grains.any():
         return False
-    out = np.flatnonzero((grains & ~cover) | (dense & ~cache[3]))
-    return out.size == 0 or _stranded(model.grid.cell_shape, phi, out, PHI_STRANDED * model.material.phi_max)
+    dense_out = dense & ~cache[3]
+    if dense_out.any() and (never_active is None or np.any(dense_out & ~never_active)):
+        return False
+    out = np.flatnonzero((grains & ~cover) | dense_out)
+    return out.size == 0 or _stranded(model.grid.cell_shape, phi, out, PHI_STRANDED * model.material.phi_max,
+                                      model.grid.periodic_x)
 
 
-def _stranded(shape: tuple, phi: np.ndarray, cells: np.ndarray, limit: float) -> bool:
+def _stranded(shape: tuple, phi: np.ndarray, cells: np.ndarray, limit: float, periodic_x: bool = False) -> bool:
     """True if every cell of ``cells`` (flat indices) and its eight neighbours hold ``phi <
     limit``: isolated traces, left at rest outside the kept region (:data:`~granflow.
-    model_options.PHI_STRANDED`), not the thin tip of a front (next to a fuller cell)."""
+    model_options.PHI_STRANDED`), not the thin tip of a front (next to a fuller cell). A periodic
+    x boundary wraps."""
     i, k = np.unravel_index(cells, shape)
     for di in (-1, 0, 1):
         for dk in (-1, 0, 1):
             ii, kk = i + di, k + dk
+            if periodic_x:
+                ii = ii % shape[0]
             inside = (ii >= 0) & (ii < shape[0]) & (kk >= 0) & (kk < shape[1])
             if np.any(phi[np.ravel_multi_index((ii[inside], kk[inside]), shape)] >= limit):
                 return False

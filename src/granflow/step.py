@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from granflow.active_set import start_free
+from granflow.active_set import never_active, start_free
 from granflow.errors import GranflowInputError
 from granflow.grid import VelocityBC
 from granflow.model_options import BaseFriction
@@ -214,7 +214,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
         if gas_sys.n_wet:
             border = gas_sys.border(model.material.p_atm)
             rhs_gas = [gas_sys.scaled_rhs(model.material.p_atm)]
-    keep, region, edge, pressure_cells = step_region(model, phi, dense)
+    keep, region, edge, pressure_cells = step_region(model, phi, dense, never_active(thin, source, dense))
     tim["assembly"] += time.perf_counter() - t0
     return Explicit(dense=dense, phi_e=model.effective_packing(phi, state.c), iso=iso, rho_n=rho_n, f_g=f_g,
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,

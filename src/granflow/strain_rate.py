@@ -92,8 +92,12 @@ class StrainRateOn:
     whole-grid operator's bit for bit (module docstring)."""
 
     def __init__(self, rate: StrainRate, cells) -> None:
+        mask = np.asarray(cells, dtype=bool).ravel()
+        n_cells = rate.ops.grid.n_cells
+        if mask.size != n_cells:  # the kernel does not check its indices
+            raise ValueError(f"StrainRateOn: a mask of {mask.size} cells on a grid of {n_cells}")
         self.rate = rate
-        self.cells = np.flatnonzero(np.asarray(cells, dtype=bool).ravel())
+        self.cells = np.flatnonzero(mask)
         self._unsigned = self.cells.astype(np.uint64)
         self._sliced = None
 

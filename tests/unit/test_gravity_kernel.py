@@ -102,3 +102,13 @@ def test_model_steps_use_the_kernel_and_match_numpy(monkeypatch):
     assert fast.model.consistent_gravity
     assert calls >= len(fast.reports) > 0
     assert np.abs(fast.state.vel).max() > 0
+
+
+def test_mismatched_lengths_are_refused():
+    """The kernel does not check its indices: arrays of unequal length or ``n_u`` beyond them
+    are refused before it runs."""
+    a = np.zeros(10)
+    with pytest.raises(ValueError, match="unknowns"):
+        gravity_weights_compiled(a, np.zeros(11), a, 0.0, -9.81, 5, 2500.0, 1e-3)
+    with pytest.raises(ValueError, match="n_u"):
+        gravity_weights_compiled(a, a, a, 0.0, -9.81, 11, 2500.0, 1e-3)

@@ -88,6 +88,9 @@ def test_bad_velocity_is_refused_and_inputs_are_converted():
     u = np.random.default_rng(0).normal(size=2 * g.n_unknowns)[::2]  # not contiguous
     assert np.array_equal(on(u), ops.strain_rate_norm(u))
     assert np.array_equal(on(list(u)), ops.strain_rate_norm(u))
+    for size in (g.n_cells + 1, g.n_cells - 1):  # the kernel does not check its indices
+        with pytest.raises(ValueError, match="mask of"):
+            ops.strain_rate_on(np.ones(size, dtype=bool))
 
 
 def _run(case_toml_dict):

@@ -32,7 +32,11 @@ def gravity_weights_compiled(centred, flux, vel, gx: float, gz: float, n_u: int,
     """``(force, drag)`` of ``model_gravity.gravity_weights_numpy`` with the gravity vector
     ``gx`` on the first ``n_u`` unknowns (the u faces) and ``gz`` on the others."""
     def f64(a):
-        return np.ascontiguousarray(a, dtype=np.float64)
+        return np.ascontiguousarray(a, dtype=np.float64).ravel()
 
-    return _KERNEL.get()(f64(centred), f64(flux), f64(vel), float(gx), float(gz), int(n_u),
+    centred, flux, vel = f64(centred), f64(flux), f64(vel)
+    if not centred.size == flux.size == vel.size or not 0 <= n_u <= vel.size:  # unchecked in the kernel
+        raise ValueError(f"gravity weights: arrays of {centred.size}, {flux.size}, {vel.size} unknowns, "
+                         f"n_u = {n_u}")
+    return _KERNEL.get()(centred, flux, vel, float(gx), float(gz), int(n_u),
                          float(rho_s), float(u_b))
