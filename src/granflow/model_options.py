@@ -56,9 +56,15 @@ PHI_TRACE = 1.0e-6
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
 PHI_STRANDED = 1.0e-3
 """Grains outside the kept velocity region (:func:`granflow.region.step_region`) in cells with
-``phi < PHI_STRANDED phi_max`` do not make the region be rebuilt: they stay at rest (their faces
-are not unknowns) until the region is rebuilt for another reason. Such traces, carried away from
-the pile by the ambient, rebuilt the region (and PARDISO's analysis) every 3-4 steps."""
+``phi < PHI_STRANDED phi_max``, in their eight neighbours too, do not make the region be rebuilt
+(unless dense with a row, or more than :data:`STRANDED_VOLUME`): they keep the faces the kept
+region gives them, at rest beyond it, until the region is rebuilt for another reason. Such traces,
+carried away from the pile by the ambient, rebuilt the region (and PARDISO's analysis) every 3-4
+steps (docs/solver.md "Keeping the pattern")."""
+STRANDED_VOLUME = 1.0e-4
+"""Most grains (a fraction of all the grains' volume) that may be stranded at once
+(:data:`PHI_STRANDED`): above it the cells are a dilute cloud, not traces, and the region is
+rebuilt. The Lagree column's traces are ~1e-6 of its volume."""
 VISCOUS_ADDITION_FACTOR = 0.5
 """The closure's viscous stress eta_visc S is 2 (eta_visc/2) S in the tau = 2 eta S convention."""
 DEFAULT_PHI_TOLERANCE = 0.05

@@ -20,7 +20,7 @@ import numpy as np
 
 from granflow.errors import GranflowInputError
 from granflow.max_filter import maximum_filter
-from granflow.model_options import PHI_STRANDED, PHI_TRACE
+from granflow.model_options import PHI_STRANDED, PHI_TRACE, STRANDED_VOLUME
 
 REGION_KEYS = ("model.region.velocity", "model.region.pressure")
 """Checkpoint entries of the kept region: the velocity unknowns (n_unknowns,) and the pressure
@@ -104,8 +104,11 @@ def _still_covers(model, cache: tuple, phi, dense, never_active=None) -> bool:
     if dense_out.any() and (never_active is None or np.any(dense_out & ~never_active)):
         return False
     out = np.flatnonzero((grains & ~cover) | dense_out)
-    return out.size == 0 or _stranded(model.grid.cell_shape, phi, out, PHI_STRANDED * model.material.phi_max,
-                                      model.grid.periodic_x)
+    if out.size == 0:
+        return True
+    if phi[out].sum() > STRANDED_VOLUME * phi.sum():  # not a trace: a dilute cloud
+        return False
+    return _stranded(model.grid.cell_shape, phi, out, PHI_STRANDED * model.material.phi_max, model.grid.periodic_x)
 
 
 def _stranded(shape: tuple, phi: np.ndarray, cells: np.ndarray, limit: float, periodic_x: bool = False) -> bool:

@@ -611,3 +611,21 @@ def test_a_trace_with_a_row_is_never_stranded(surface):
     for _ in range(2):
         assert not model.advance(state, 2e-4).failed
     assert model.region_cache is not kept and model.region_cache[3].reshape(g.cell_shape)[cell]
+
+
+def test_a_dilute_cloud_is_not_stranded():
+    """Traces each below ``PHI_STRANDED`` but together more than ``STRANDED_VOLUME`` of the
+    grains (a 5 x 5 block at phi = 5e-4, 1.3e-4 of the column) rebuild the region."""
+    from granflow.model_options import PHI_STRANDED, STRANDED_VOLUME
+
+    model, state = _margin_column()
+    for _ in range(2):
+        assert not model.advance(state, 2e-3).failed
+    kept = model.region_cache
+    block = (slice(30, 35), slice(5, 10))
+    state.phi[block] = 5e-4
+    if state.c is not None:
+        state.c[block] = 5e-4 / PHI_MAX
+    assert 5e-4 < PHI_STRANDED * PHI_MAX and state.phi[block].sum() > STRANDED_VOLUME * state.phi.sum()
+    assert not model.advance(state, 2e-4).failed
+    assert model.region_cache is not kept
