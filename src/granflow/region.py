@@ -91,7 +91,7 @@ def _still_covers(model, cache: tuple, phi, dense, never_active=None) -> bool:
     one only if it gets no row this step (``never_active``: a dense cell with a row must be a
     pressure unknown). The Lagree column (a = 1.42, 256^2, one solve per step, margin 3, to
     t = 4) rebuilt its region 122 times in 553 steps, nearly all for single-cell traces of phi
-    ~1e-6..3e-4 carried by the ambient one cell a step; with them stranded, 21 times (user CPU
+    ~1e-6..3e-4 carried by the ambient one cell a step; with them stranded, 22 times (user CPU
     17.5 -> 16.1 s, two pairs; fronts at t = 1..4 unchanged, phi differs by 1e-3 in L1)."""
     cover = cache[KEPT_ENTRIES]
     if cover is None:
