@@ -42,6 +42,10 @@ drags on the surface (viscous stress ~ eta_a u / (band dx)); measured on the Lag
 (0.05 H0 front), band 6 -0.6 % / -0.45 %, band 10 -0.16 % / -0.2 %; the a = 1.42 run at 32^2
 moved 5 % with band 3 and not with 6 or 10. Cost at 128^2: 11.4 s (3), 11.5 s (6), 12.4 s (10);
 at 256^2 39.8 s (3), 49.1 s (10) (benchmarks/README.md)."""
+DEFAULT_BAND_MARGIN = 3
+"""Default :attr:`AmbientParams.velocity_band_margin` [cells] (since session 25; 0 before): the
+velocity band and the pressure unknowns are kept across steps, built 3 cells wider (Lagree
+column at 256^2: the pattern rebuilt at 22 of 553 steps; docs/solver.md "Keeping the pattern")."""
 ANALYSIS_STEPS = 16
 """Steps over which PARDISO keeps an analysis (ordering, scaling, matching) of an unchanged pattern
 when :attr:`AmbientParams.velocity_band_margin` > 0. Its scaling and matching are those of the
@@ -160,7 +164,7 @@ class AmbientParams(Params):
         stay inside them (:func:`granflow.region.step_region`); with ``linear_solver`` PARDISO the
         matrix pattern then stays the same over those steps and its analysis is kept for up to
         :data:`ANALYSIS_STEPS` steps (:class:`granflow.solvers.pardiso.PardisoSolver`). Default
-        0: both rebuilt at every step. Checkpoints store both, so restarts stay bit-identical
+        :data:`DEFAULT_BAND_MARGIN` (3; 0, both rebuilt at every step, before session 25). Checkpoints store both, so restarts stay bit-identical
         (docs/solver.md "Keeping the pattern").
     """
 
@@ -173,7 +177,7 @@ class AmbientParams(Params):
                                "within this many cells of the grains, u = 0 beyond; 0 = everywhere, "
                                f"else >= {MIN_VELOCITY_BAND} [cells]")
 
-    velocity_band_margin: int = Field(0, ge=0, le=MAX_VELOCITY_BAND, description="keep the velocity band "
+    velocity_band_margin: int = Field(DEFAULT_BAND_MARGIN, ge=0, le=MAX_VELOCITY_BAND, description="keep the velocity band "
                                       "and the pressure unknowns across steps, built this many cells wider; "
                                       "0 = rebuilt every step [cells]")
 
@@ -190,11 +194,12 @@ class AmbientParams(Params):
         return self.eta_a if self.eta_b is None else self.eta_b
 
 
-DEFAULT_MAX_SWEEPS = 10
-"""Default Picard cap. With scheme v2 the loop converges (tol 1e-3, no active-set change) within
-7 sweeps on the Lagree column at 128^2 and within 10 on the fluidised flagship (measured with a
-cap of 12, session 12); the former cap of 4 accepted 13 % (Lagree) and 14 % (flagship) of the steps
-unconverged, for 6 % fewer sweeps; fronts and t_rest unchanged (docs/solver.md)."""
+DEFAULT_MAX_SWEEPS = 1
+"""Default Picard cap: one linear solve per step (session 25). With the extrapolated predictor
+the step is linearly implicit (docs/solver.md, "One solve per step"): on the Lagree column the
+t = 4 fronts equal the converged loop's (cap 10, tol 1e-3) and the deposit differs by 4-5e-3,
+for a half to a third of the cost. ``max_sweeps = 10`` with ``predictor = "previous"`` is the
+converged loop of sessions 12-24 (7 sweeps at 128^2, 10 on the fluidised flagship)."""
 
 
 class Predictor(str, Enum):
@@ -218,7 +223,8 @@ class PicardParams(Params):
     Attributes
     ----------
     max_sweeps : int
-        Maximum number of linear solves per step. Default :data:`DEFAULT_MAX_SWEEPS` (10).
+        Maximum number of linear solves per step. Default :data:`DEFAULT_MAX_SWEEPS` (1; 10
+        before session 25).
     tol : float
         Converged when ``|u_{k+1} - u_k| <= tol (|u_{k+1}| + sqrt(n) eps Lz)`` and the active set
         did not change [-]. Default 1e-3.
@@ -228,7 +234,8 @@ class PicardParams(Params):
         change from the first iterate (near rest it reached 0.95 of the small velocities whatever
         dt, and a decelerating axisymmetric column failed at t = 0.35 s).
     predictor : {"previous", "extrapolated"}
-        First iterate of the loop (:class:`Predictor`). Default ``"previous"`` (``u^n``).
+        First iterate of the loop (:class:`Predictor`). Default ``"extrapolated"`` (since
+        session 25; ``"previous"``, ``u^n``, before).
         With ``"extrapolated"`` and ``max_sweeps = 1`` the step is *linearly implicit*: one
         linear solve with coefficients extrapolated from the two last steps (docs/solver.md,
         "One solve per step").
@@ -238,7 +245,7 @@ class PicardParams(Params):
     tol: float = Field(1.0e-3, gt=0, description="relative velocity-increment tolerance")
     fail_tol: float = Field(0.5, gt=0, description="relative increment that fails the step")
     predictor: Literal[tuple(p.value for p in Predictor)] = Field(  # type: ignore[valid-type]
-        Predictor.PREVIOUS.value, description='first iterate: "previous" (u^n) or "extrapolated" '
+        Predictor.EXTRAPOLATED.value, description='first iterate: "previous" (u^n) or "extrapolated" '
         "(u^n + min(dt, dt_(n-1)) minmod(a^n, a^(n-1)), a^n = (u^n - u^(n-1)) / dt_(n-1)) [-]")
 
 

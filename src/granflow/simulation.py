@@ -75,7 +75,8 @@ def _run_thread_limits() -> dict[str, int]:
     the ``blas`` user API would also pin MKL, the sparse solver's pool)."""
     return {info["prefix"]: 1 for info in threadpool_info() if info["internal_api"] == SERIAL_BLAS}
 
-DEFAULT_CFL = 0.3
+DEFAULT_CFL = 0.4
+"""Default CFL number (0.3 before session 25, when one solve per step became the default)."""
 DEFAULT_DT_MAX = 1.0e-3
 """Accuracy cap on dt [s] (NUMERICS.md §8b)."""
 DEFAULT_MAX_RETRIES = 6
