@@ -3,8 +3,8 @@
 Case: ``lagree_column`` (src/granflow/cases/lagree_column.py): dimensionless half column
 (H0 = g = rho = 1, aspect ratio ``--aspect``, default 1.42) against a symmetry wall in a 5 x 5 box,
 no-slip base, mu_s = 0.32, Delta mu = 0.28, I0 = 0.4, d = 1/40, run to ``--stop-time`` (default
-t = 4 sqrt(H0/g)) with ``dt_max = 0.01``, CFL 0.3, on ``n x n`` cells for each n of
-``--resolutions``, for each closure of ``--models`` ("incompressible": the incompressible mu(I)
+t = 4 sqrt(H0/g)) with ``dt_max = 0.01``, the default CFL (0.3 before session 25, 0.4 since),
+on ``n x n`` cells for each n of ``--resolutions``, for each closure of ``--models`` ("incompressible": the incompressible mu(I)
 reference, the model of the paper; "mu_i": the Chupin-Dubois mu(I) closure with dilatancy) and each
 linear solver of ``--linear-solvers`` (auto, direct, pardiso, amg).
 

@@ -1,6 +1,7 @@
 """CPU cost of scheme v2 against v1 on the Lagree column (issue 12 acceptance 6).
 
-Case ``lagree_column`` (a = 1.42, Basilisk's parameters, to t = 4, dt_max = 0.01, CFL 0.3) at
+Case ``lagree_column`` (a = 1.42, Basilisk's parameters, to t = 4, dt_max = 0.01, the
+default loop and CFL: 0.3 before session 25, 0.4 since) at
 ``n x n`` cells, run with the two numerics side by side:
 
 * ``v1``: ``numerics.advection = "upwind"``, ``numerics.surface = "threshold"`` (the defaults

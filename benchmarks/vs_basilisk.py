@@ -5,11 +5,11 @@ Case: Basilisk's public ``granular_column.c`` (sandbox/M1EMN/Exemples, with its 
 (examples/lagree_column.toml), aspect ratio ``--aspect`` (default 1.42), n x n cells on the 5 x 5
 box (Basilisk's ``N = 1 << LEVEL``), to t = 4. granflow runs as its command line does
 (``granflow run examples/lagree_column.toml --set grid.nx=n --set grid.nz=n --set
-time.stop_time=4 ...``) once per ``--variants`` entry: ``v1`` (scheme v1, pinned:
-``numerics.advection = "upwind"``, ``numerics.surface = "threshold"``), ``consistent``
-(``advection = "consistent"`` with the threshold surface, pinned) and ``v2`` (the case file's
-numerics, i.e. the default scheme v2: ``advection = "consistent"``, ``surface = "indicator"``;
-the tables of benchmarks/README.md measured before v2 became the default call v1 "default").
+time.stop_time=4 ...``) once per ``--variants`` entry (:data:`VARIANTS`): ``defaults`` (the case
+file's numerics), ``v2`` (scheme v2 with the converged Picard loop, the defaults of sessions
+12-24, pinned), ``v1`` and ``consistent`` (the threshold surface, pinned), and the one-solve
+variants (the tables of benchmarks/README.md measured before v2 became the default call v1
+"default"; those measured before session 25 call today's ``v2`` "defaults").
 No figures, NetCDF records every
 1 time unit (t = 0..4, like the original's output times), one BLAS/OpenMP thread.
 
@@ -42,7 +42,7 @@ column centres, as granflow's ``final_profile``).
 
 Run:   python benchmarks/vs_basilisk.py --basilisk-dir /path/outside/the/repo
        python benchmarks/vs_basilisk.py --basilisk-dir DIR --resolutions 64,128,256 --pairs 3
-       python benchmarks/vs_basilisk.py --quick [--basilisk-dir DIR]   # one round at 64^2, v2 (default) only
+       python benchmarks/vs_basilisk.py --quick [--basilisk-dir DIR]   # one round at 64^2, the defaults only
 Time:  one round ~1 min at 64^2, ~2-3 min at 128^2, ~8-10 min at 256^2 (two granflow variants;
        2-core machine, another job running).
 """
@@ -76,25 +76,31 @@ FRONT_THRESHOLD = 0.05
 """Deposit thickness defining the front [H0] on both codes."""
 PROFILE_X = tuple(np.round(np.arange(0.0, 3.5 + 1e-9, 0.25), 2))
 """Stations of Basilisk's h(x) at t = 4 [H0]."""
+LOOP = ["numerics.picard.max_sweeps=10", "numerics.picard.predictor=previous", "time.cfl=0.3",
+        "numerics.ambient.velocity_band_margin=0"]
+"""The converged Picard loop, the defaults until session 25 (2026-12-06)."""
+ONE_SOLVE = ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated"]
 VARIANTS = {
-    "v1": ["numerics.advection=upwind", "numerics.surface=threshold"],
-    "consistent": ["numerics.advection=consistent", "numerics.surface=threshold"],
-    "v2": [],
-    "v2_cfl04": ["time.cfl=0.4"],
-    "v2_1solve": ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated"],
-    "v2_1solve_cfl04": ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated",
-                        "time.cfl=0.4"],
-    "v2_1solve_cfl04_keep": ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated",
-                             "time.cfl=0.4", "numerics.ambient.velocity_band_margin=3"],
+    "defaults": [],
+    "v1": ["numerics.advection=upwind", "numerics.surface=threshold", *LOOP],
+    "consistent": ["numerics.advection=consistent", "numerics.surface=threshold", *LOOP],
+    "v2": LOOP,
+    "v2_cfl04": [*LOOP, "time.cfl=0.4"],
+    "v2_1solve": [*ONE_SOLVE, "time.cfl=0.3", "numerics.ambient.velocity_band_margin=0"],
+    "v2_1solve_cfl04": [*ONE_SOLVE, "time.cfl=0.4", "numerics.ambient.velocity_band_margin=0"],
+    "v2_1solve_cfl04_keep": [*ONE_SOLVE, "time.cfl=0.4", "numerics.ambient.velocity_band_margin=3"],
 }
-"""granflow's numerics per variant (``--set`` overrides on top of the case file; ``v2`` is the
-default numerics, the others pin their options so that they keep their meaning; ``v2_cfl04``
-is v2 with the CFL number 0.4 instead of the default 0.3, which changes only CFL-bound steps:
-256^2 and finer here, benchmarks/README.md); ``v2_1solve`` is the linearly implicit step, one
-solve per step with the coefficients of the extrapolated first iterate, as Basilisk's step lags
-its viscosity by one step (docs/solver.md, "One solve per step"); ``_keep`` adds the velocity band
-margin that keeps the pattern and PARDISO's analysis across steps (docs/solver.md, "Keeping the
-pattern")."""
+"""granflow's numerics per variant (``--set`` overrides on top of the case file). ``defaults``
+is the case file's numerics as they stand; every other variant pins its options so that it keeps
+its meaning when the defaults change: ``v2`` is scheme v2 with the converged Picard loop (up to
+10 sweeps, first iterate u^n, CFL 0.3, the pattern rebuilt every step: the defaults until session
+25), ``v1`` and ``consistent`` the same loop with the threshold surface (and upwind momentum for
+v1); ``v2_cfl04`` changes only CFL-bound steps (256^2 and finer here, benchmarks/README.md);
+``v2_1solve`` is the linearly implicit step, one solve per step with the coefficients of the
+extrapolated first iterate, as Basilisk's step lags its viscosity by one step (docs/solver.md,
+"One solve per step"); ``_keep`` adds the velocity band margin that keeps the pattern and
+PARDISO's analysis across steps (docs/solver.md, "Keeping the pattern").
+``v2_1solve_cfl04_keep`` equals ``defaults`` since session 25."""
 COMMON_SETS = ["time.stop_at_rest=100", "output.figures=false", "output.interval=1"]
 """Run to stop_time (the pile does not rest for 100 time units before t = 4), no figures,
 records at t = 0, 1, .., 4."""
@@ -225,9 +231,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pairs-at", default="",
                     help="rounds for some resolutions, e.g. 256:1 (overrides --pairs there)")
     ap.add_argument("--aspect", type=float, default=1.42, help="aspect ratio a = H0/L0 (0.5, 1.42, 6.26)")
-    ap.add_argument("--variants", default="v1,v2",
-                    help=f"granflow numerics, any of {','.join(VARIANTS)} (default: v1,v2)")
-    ap.add_argument("--quick", action="store_true", help="one round at 64^2, the v2 (default) variant only")
+    ap.add_argument("--variants", default="defaults,v2",
+                    help=f"granflow numerics, any of {','.join(VARIANTS)} (default: defaults,v2)")
+    ap.add_argument("--quick", action="store_true", help="one round at 64^2, the default numerics only")
     args = ap.parse_args(argv)
 
     exe, why = find_executable(args.basilisk_dir)
@@ -242,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     resolutions = [int(r) for r in args.resolutions.split(",")]
     pairs_at = {int(k): int(v) for k, v in (p.split(":") for p in args.pairs_at.split(",") if p)}
     if args.quick:
-        resolutions, variants, pairs_at = [64], ["v2"], {64: 1}
+        resolutions, variants, pairs_at = [64], ["defaults"], {64: 1}
     for n in resolutions:
         level_of(n)
 

@@ -201,6 +201,40 @@ def test_docs_page_lists_every_case_and_option():
         assert code in doc
 
 
+OPTION_ROW = re.compile(r"^\| `([a-z_]+\.[a-zA-Z0-9_.]+)` \| ([^|]*?) \|", re.M)
+
+
+def _documented_default(text: str):
+    """A default as docs/cases.md writes it: a JSON literal, or None for "(unset...)", "(none)",
+    "None" and a default taken from another option (e.g. ``material.phi_max``)."""
+    import json
+
+    if text == "None" or text.startswith("(") or re.fullmatch(r"[a-z_]+\.[a-z_.]+", text):
+        return None
+    return json.loads(text)
+
+
+def _same(documented, default) -> bool:
+    if isinstance(default, float) and not isinstance(documented, bool | str | None | list):
+        return documented == pytest.approx(default, rel=1e-12)
+    return documented == default
+
+
+def test_docs_page_states_every_default_as_the_schema_does():
+    """The defaults column of docs/cases.md against the case schemas (describe_options): a
+    changed default (e.g. the loop's of session 25) must change its row. A key shared by several
+    cases must have the same default in all of them or be documented per case."""
+    rows = OPTION_ROW.findall((ROOT / "docs" / "cases.md").read_text())
+    assert len(rows) > 100  # the tables are found
+    wrong = []
+    for key, text in rows:
+        documented = _documented_default(text.strip())
+        defaults = [describe_options(c)[key]["default"] for c in CASES.names() if key in describe_options(c)]
+        if not any(_same(documented, d) for d in defaults):
+            wrong.append((key, text, defaults))
+    assert wrong == []
+
+
 def test_option_names_come_from_the_model_enums_and_solvers_are_registered():
     """The numerics and gas Literals are derived from the enums the Model takes (one list of names),
     every solver a case may name other than "auto" is in the solver registry, and the defaults of
