@@ -42,17 +42,22 @@ def test_deposit_lines_front_and_profile_follow_granflow_rules(bench):
     assert bench.profile(h, dx, x=[0.0, dx, 5.0]) == pytest.approx([0.6, 0.55, 0.0], abs=1e-12)
 
 
-@pytest.mark.parametrize("variant", ["v1", "consistent", "v2"])
+@pytest.mark.parametrize("variant", ["v1", "consistent", "v2", "v2_1solve", "defaults"])
 def test_granflow_command_lines_are_valid_overrides(bench, tmp_path, variant):
     cmd = bench.granflow_cmd(32, 6.26, variant, tmp_path)
     sets = [cmd[i + 1] for i, a in enumerate(cmd) if a == "--set"]
     cfg = load_case(bench.CASE_FILE, sets)
     assert (cfg.grid.nx, cfg.grid.nz, cfg.time.stop_time, cfg.setup.a) == (32, 32, 4.0, 6.26)
     assert cfg.output.figures is False
-    # v1 and consistent pin their options; v2 is the case file's (the default) numerics
-    want = {"v1": ("upwind", "threshold"), "consistent": ("consistent", "threshold"),
-            "v2": ("consistent", "indicator")}[variant]
-    assert (cfg.numerics.advection, cfg.numerics.surface) == want
+    # every variant but "defaults" pins its scheme and its loop, so that it keeps its meaning
+    # when the defaults change; "defaults" is the case file's numerics, whatever they are
+    default = load_case(bench.CASE_FILE, [])
+    want = {"v1": ("upwind", "threshold", 10, 0.3), "consistent": ("consistent", "threshold", 10, 0.3),
+            "v2": ("consistent", "indicator", 10, 0.3), "v2_1solve": ("consistent", "indicator", 1, 0.3),
+            "defaults": (default.numerics.advection, default.numerics.surface,
+                         default.numerics.picard.max_sweeps, default.time.cfl)}[variant]
+    got = (cfg.numerics.advection, cfg.numerics.surface, cfg.numerics.picard.max_sweeps, cfg.time.cfl)
+    assert got == want
 
 
 def test_resolutions_must_be_powers_of_two(bench):
