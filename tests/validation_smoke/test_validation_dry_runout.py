@@ -170,17 +170,19 @@ def a1_levels(dr, tmp_path_factory):
 
 @pytest.mark.slow
 def test_a1_runout_converges_inside_the_published_band(a1_levels, dr):
-    """a = 1 (scheme v2 defaults, second pass, 3 Dec 2026): every level rests (t_rest 0.43, 0.47,
-    0.51 s) with no forward creep of the toe in the 0.1 s hold (<= 1 mm); the toe run-outs 2.027,
-    1.919, 2.027 agree within 5.6 % but do not converge monotonically (the Richardson estimate falls
-    back to first order, 2.29 +- 0.78: not asserted), and every level's lambda1 lies in the
-    published planar band 1.2-2.2 (Lube et al. 2005; Lajeunesse et al. 2005), at its top. (The v1
-    claim of this test, 1.422, 1.404, 1.394 -> 1.381 +- 0.016, is in git history.)"""
+    """a = 1 (the defaults switched in session 25, 6 Dec 2026: one solve per step, cfl 0.4): every
+    level rests (t_rest 0.44, 0.47, 0.52 s) with no forward creep of the toe in the 0.1 s hold
+    (<= 1 mm); the toe run-outs 1.771, 2.037, 2.069 converge (the change between levels shrinks,
+    0.266 then 0.032; the Richardson estimate falls back to first order, 2.15 +- 0.23: not
+    asserted), and every level's lambda1 lies in the published planar band 1.2-2.2 (Lube et al.
+    2005; Lajeunesse et al. 2005), at its top. (The earlier claims of this test, 2.027, 1.919,
+    2.027 within 5.6 % with the converged Picard loop, and v1's 1.422, 1.404, 1.394, are in git
+    history.)"""
     recs, res = a1_levels
     for r in recs:
         assert r["status"] == "completed" and r["stopped_at_rest"]
         assert r["east_wall_clear"] and r["lid_clear"]
         assert r["toe"]["drift_last_hold_m"] <= 1e-3
     toe = [r["toe"]["relative"] for r in recs]
-    assert (max(toe) - min(toe)) / min(toe) < 0.08
+    assert abs(toe[2] - toe[1]) < 0.5 * abs(toe[1] - toe[0])
     assert all(LAMBDA1_BAND[0] <= t <= LAMBDA1_BAND[1] for t in toe)
