@@ -198,16 +198,19 @@ def v2(energy):
 
 
 def test_v2_default_budget(v2, dt_series, fluidised):
-    """Scheme v2 (the default): mass and momentum moved by the same fluxes, so the
-    inertia-transport term (mass used in the solve vs mass after the transport) is at the Picard
-    tolerance (measured <= 8e-5); the identity (with the gas terms: the gas energy at the
-    material packing phi/c) stays exact (measured <= 6e-16); the audit's recomputation of the
-    advection energy (fluxes of the material transport with u^{n+1}) matches the step reports to
-    the Picard tolerance (measured <= 9e-5); the residual is well below scheme v1's on the same
-    grid (measured 20 x 8: -7.1 % vs -21.3 % dry, -6.1 % vs -27.0 % fluidised), shrinks under
-    refinement (measured dry -7.1 % -> -3.5 %, fluidised -6.1 % -> -3.9 %) and is within issue
-    12's 5 % at 40 x 16. (The gravity/transport term is the largest change from v1: +0.9, +0.8 %
-    dry, +2.0, +0.5 % fluidised, against <= 0.05 % in v1.)"""
+    """Scheme v2 (the default) with the default step (since session 25: one linear solve per step,
+    extrapolated first iterate, cfl 0.4): mass and momentum moved by the same fluxes, so the
+    inertia-transport term (mass used in the solve vs mass after the transport) is at the
+    linearisation's error (measured <= 1.6e-3; <= 8e-5 with the converged loop); the identity
+    (with the gas terms: the gas energy at the material packing phi/c) stays exact (measured <=
+    7.7e-15); the audit's recomputation of the advection energy (fluxes of the material transport
+    with u^{n+1}) matches the step reports to the distance between the first iterate, whose fluxes
+    the step used, and u^{n+1} (measured 1.9e-4 / 1.2e-4 dry, 8.2e-4 / 9.6e-4 fluidised; <= 9e-5
+    with the converged loop, whose tolerance is 1e-3; bound 3e-3); the residual is well below
+    scheme v1's on the same grid (measured 20 x 8: -8.8 % vs -24.7 % dry, -6.0 % vs -23.9 %
+    fluidised), shrinks under refinement (measured dry -8.8 % -> -3.6 %, fluidised -6.0 % ->
+    -2.8 %) and is within issue 12's 5 % at 40 x 16. (Session-25 measurements,
+    validation/energy/README.md.)"""
     for case, runs in v2.items():
         for r in runs:
             print(f"\n{case} {r['nx']}x{r['nz']}: residual {r['residual_rel']:+.4f}, identity "
@@ -220,7 +223,7 @@ def test_v2_default_budget(v2, dt_series, fluidised):
             assert abs(r["mass_err"]) <= MASS_TOL
             assert r["phi_min"] >= 0.0 and r["phi_max"] <= r["phi_max_allowed"]
             assert abs(r["parts_rel"]["inertia_transport"]) <= 5e-3
-            assert r["audit_mismatch_rel"] <= 1e-3
+            assert r["audit_mismatch_rel"] <= 3e-3
             assert -1.0 < r["residual_rel"] < 0.0
         coarse, fine = runs
         assert abs(fine["residual_rel"]) < abs(coarse["residual_rel"])
