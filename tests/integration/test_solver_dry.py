@@ -149,7 +149,8 @@ def test_heap_below_the_friction_angle_creeps_at_the_regularisation_level(name, 
     about (open point, reported). Measured (3 Dec 2026, eps = 1e-3 / 5e-3): DP max speed
     1.09 / 1.08 eps H under v2, at the z-face below the summit's thin surface cell (c = 0.32,
     friction at its mid-material pressure), 0.90 eps H under v1 at the same face; mu(I) 0.89
-    eps H (v2); ratios 4.99 - 5.00; no rejected step."""
+    eps H (v2); ratios 4.99 - 5.00; no rejected step. (Session 25, one solve per step by
+    default: DP 1.089 / 1.094 eps H, mu(I) 0.890, ratios 5.023 (DP) and 4.999 (mu(I)).)"""
     g = Grid(nx=20, nz=9, Lx=0.2, Lz=0.09)
     X, Z = g.cell_coords()
     top, tail = 0.085 if slope_deg > 16 else 0.07, 0.02
