@@ -62,8 +62,8 @@ def check_steady_expansion(ratio: float, H0: float, nz: int, tol: float, picard:
 
 
 def test_steady_injected_bed_matches_the_homogeneous_expansion_at_1_3_u_mf():
-    """1 cm bed, 8 cells over it (12 in the box), U = 1.3 U_mf: steady at 0.397 s (front 0.361 s),
-    phi 0.56822 against 0.57067 (-0.43 %); tolerance 1 % (issue 13). ~6 s."""
+    """1 cm bed, 8 cells over it (12 in the box), U = 1.3 U_mf: steady at 0.400 s, phi 0.56812
+    against 0.57067 (-0.45 %; session 25); tolerance 1 % (issue 13). ~6 s."""
     check_steady_expansion(1.3, H0=0.01, nz=12, tol=1e-2)
 
 
@@ -100,8 +100,9 @@ def test_rising_bed_is_not_declared_steady():
 @pytest.mark.slow
 @pytest.mark.parametrize("ratio", [1.1, 1.3, 1.6])
 def test_steady_bed_matches_the_expansion_law_at_three_velocities(ratio):
-    """2 cm bed, 20 cells over it (30 in the box): measured -0.06 %, -0.03 %, +0.002 % at 1.1, 1.3,
-    1.6 U_mf (steady at 0.77, 0.77, 0.83 s; fronts 0.75, 0.72, 0.69 s); tolerance 1 %. ~3 s each."""
+    """2 cm bed, 20 cells over it (30 in the box): measured -0.06 %, -0.03 %, -0.06 % at 1.1, 1.3,
+    1.6 U_mf (steady at 0.78, 0.77, 0.69 s; session 25, validation/roche results.json); tolerance
+    1 %. ~3 s each."""
     check_steady_expansion(ratio, H0=0.02, nz=30, tol=1e-2)
 
 
