@@ -22,10 +22,7 @@ from __future__ import annotations
 from enum import Enum
 
 import numpy as np
-import pyamg
 import scipy.sparse as sp
-from pyamg.multilevel import coarse_grid_solver
-from pyamg.relaxation.smoothing import change_smoothers
 
 from granflow.grid import Grid
 
@@ -136,6 +133,8 @@ class Hierarchy:
         self._symmetry = "hermitian" if is_symmetric(A) else "nonsymmetric"
         if B is not None and B.shape[0] != A.shape[0]:
             B = None
+        import pyamg  # lazily: a run on PARDISO or SuperLU never loads it (77 ms a process)
+
         self.ml = pyamg.smoothed_aggregation_solver(
             A, B=B, symmetry=self._symmetry,
             strength=("symmetric", {"theta": self.strength_theta}), max_coarse=self.max_coarse,
@@ -152,6 +151,9 @@ class Hierarchy:
 
     def _refresh(self, A: sp.csr_matrix) -> None:
         """New values, same aggregates and prolongators: Galerkin products and smoothers again."""
+        from pyamg.multilevel import coarse_grid_solver
+        from pyamg.relaxation.smoothing import change_smoothers
+
         levels = self.ml.levels
         A.symmetry = self._symmetry
         levels[0].A = A

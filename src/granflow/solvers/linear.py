@@ -32,7 +32,6 @@ from enum import Enum
 from typing import Any, ClassVar, Mapping
 
 import numpy as np
-import pyamg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from pydantic import Field
@@ -333,6 +332,8 @@ class AMGConjugateGradient(LinearSolver):
     def solve(self, matrix, rhs, x0=None, change=MatrixChange.AUTO, hints=None):
         change = MatrixChange(change)
         A = canonical(matrix, "csr")
+        import pyamg  # lazily (granflow.solvers.amg)
+
         b, x0 = check_system(A, rhs, x0)
         t0 = time.perf_counter()
         rebuild = (self._ml is None or change is MatrixChange.PATTERN or self._stale

@@ -72,7 +72,6 @@ from enum import Enum
 from typing import Any
 
 import numpy as np
-import pyamg
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator
 from pydantic import ConfigDict, Field, model_validator
@@ -372,6 +371,8 @@ class BlockAMGSolver(LinearSolver):
         history: list[float] = []
         restart = min(DEFAULT_RESTART, self.params.max_iterations)
         outer = -(-self.params.max_iterations // restart)
+        import pyamg  # lazily (granflow.solvers.amg)
+
         ys, _ = pyamg.krylov.fgmres(blk.K, bs, x0=ys0, tol=self.params.rtol, restart=restart,
                                     maxiter=outer, M=M, residuals=history)
         t2 = time.perf_counter()
