@@ -164,11 +164,14 @@ def test_benchmark_script_runs_on_a_tiny_grid(capsys):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("model", ["incompressible", "mu_i"])
-def test_runout_at_64_is_in_the_published_planar_band(model):
+def test_runout_at_128_is_in_the_published_planar_band(model):
     """(x_f - L0)/L0 / a within lambda1 = 1.2-2.2 (experiments; MODEL.md §7) at t = 4, front =
-    deposit thickness above 0.05 H0. About 1.5 min each."""
-    cfg = config(n=64, stop_time=4.0, setup={"model": model}, output={"front_threshold": 0.05})
+    deposit thickness above 0.05 H0, at 128 cells per 5 H0 (incompressible: x_f = 2.656, lambda1
+    1.95, session 25). At 64 the incompressible front is the unresolved thin sheet: x_f = 3.047,
+    lambda1 2.34 (2.26 with the converged loop before session 25), above the band, which is why the
+    claim is made at 128. About 20 s each."""
+    cfg = config(n=128, stop_time=4.0, setup={"model": model}, output={"front_threshold": 0.05})
     sim = CASES.get(CASE).setup(cfg)
     sim.run()
     lam = CASES.get(CASE).diagnostics(sim, cfg)["runout"]["lambda1"]
-    assert LAMBDA1_BAND[0] <= lam <= LAMBDA1_BAND[1]  # measured 1.48 for both (x_f = 2.19 H0)
+    assert LAMBDA1_BAND[0] <= lam <= LAMBDA1_BAND[1]
