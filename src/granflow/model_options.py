@@ -164,8 +164,9 @@ class AmbientParams(Params):
         stay inside them (:func:`granflow.region.step_region`); with ``linear_solver`` PARDISO the
         matrix pattern then stays the same over those steps and its analysis is kept for up to
         :data:`ANALYSIS_STEPS` steps (:class:`granflow.solvers.pardiso.PardisoSolver`). Default
-        :data:`DEFAULT_BAND_MARGIN` (3; 0, both rebuilt at every step, before session 25). Checkpoints store both, so restarts stay bit-identical
-        (docs/solver.md "Keeping the pattern").
+        :data:`DEFAULT_BAND_MARGIN` (3; before session 25 0, both rebuilt at every step).
+        Checkpoints store both, so restarts stay bit-identical (docs/solver.md "Keeping the
+        pattern").
     """
 
     phi_c: float = Field(0.3, gt=0, lt=1, description="ambient threshold on phi [-]")
@@ -177,9 +178,9 @@ class AmbientParams(Params):
                                "within this many cells of the grains, u = 0 beyond; 0 = everywhere, "
                                f"else >= {MIN_VELOCITY_BAND} [cells]")
 
-    velocity_band_margin: int = Field(DEFAULT_BAND_MARGIN, ge=0, le=MAX_VELOCITY_BAND, description="keep the velocity band "
-                                      "and the pressure unknowns across steps, built this many cells wider; "
-                                      "0 = rebuilt every step [cells]")
+    velocity_band_margin: int = Field(DEFAULT_BAND_MARGIN, ge=0, le=MAX_VELOCITY_BAND,
+                                      description="keep the velocity band and the pressure unknowns "
+                                      "across steps, built this many cells wider; 0 = rebuilt every step [cells]")
 
     @field_validator("velocity_band")
     @classmethod

@@ -6,6 +6,7 @@ and phrases below are written from the case-file format, not taken from the code
 """
 from __future__ import annotations
 
+import json
 import re
 import tomllib
 from pathlib import Path
@@ -207,8 +208,6 @@ OPTION_ROW = re.compile(r"^\| `([a-z_]+\.[a-zA-Z0-9_.]+)` \| ([^|]*?) \|", re.M)
 def _documented_default(text: str):
     """A default as docs/cases.md writes it: a JSON literal, or None for "(unset...)", "(none)",
     "None" and a default taken from another option (e.g. ``material.phi_max``)."""
-    import json
-
     if text == "None" or text.startswith("(") or re.fullmatch(r"[a-z_]+\.[a-z_.]+", text):
         return None
     return json.loads(text)
