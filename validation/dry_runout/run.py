@@ -15,8 +15,9 @@ The box is Lx = :data:`LX_OVER_H0` [a] H0 long (the furthest grain, phi > 1e-3, 
 >= 2 cells from the east wall: checked per run) and Lz = ceil(1.1 N) dz tall (the column only
 falls: the highest grain is recorded and checked).
 
-Run to rest: ``time.stop_at_rest = 0.1`` s with ``output.rest_speed = 7.5e-3`` m/s (the examples'
-10 eps Lz at their Lz = 0.15 m, set explicitly because the default depends on Lz); scheme v1
+Run to rest with ``time.dt_max`` = :data:`DT_MAX` (0.25 ms): ``time.stop_at_rest = 0.1`` s with
+``output.rest_speed = 7.5e-3`` m/s (the examples' 10 eps Lz at their Lz = 0.15 m, set explicitly
+because the default depends on Lz); scheme v1
 (:data:`V1_OPTIONS`) also sets ``numerics.gravity_blend_velocity = 7.5e-4`` m/s (the examples'
 v1 eps Lz, idem; scheme v2's default is ``|g| dt``); ``stop_time`` = 2 s is an upper bound. ``numerics.linear_solver = "auto"``, every other option as in the example.
 
@@ -89,6 +90,12 @@ PHI_C = 0.3
 """numerics.ambient.phi_c default [-] (tongue thickness (phi_c/phi_max) dz)."""
 STOP_TIME = 2.0
 STOP_AT_REST = 0.1
+DT_MAX = 2.5e-4
+"""time.dt_max of every level [s] (the examples' 1e-3 until session 25). With one solve per step
+(the defaults since session 25) the coarse levels, which run at dt_max while the finest is
+CFL-bound, carried an O(dt) error as large as the mesh error at 1 ms: the a = 8 toe's levels
+8.152 / 8.496 / 8.843 fell back to first order, at 0.25 ms 8.525 / 8.800 / 8.940 converge at
+order 1.95 (README, "Session 25"); 0.5 -> 0.25 ms moves the finest a = 8 toe by 0.02."""
 REST_SPEED = 7.5e-3
 """[m/s] the examples' default 10 eps Lz with Lz = 0.15 m."""
 GRAVITY_BLEND = 7.5e-4
@@ -96,10 +103,10 @@ GRAVITY_BLEND = 7.5e-4
 surface, whose default depends on Lz (:data:`V1_OPTIONS`); the indicator surface's default,
 ``|g| dt``, does not."""
 LOOP_OPTIONS = ("numerics.picard.max_sweeps=10", "numerics.picard.predictor=previous", "time.cfl=0.3",
-                "numerics.ambient.velocity_band_margin=0")
+                "numerics.ambient.velocity_band_margin=0", "time.dt_max=1e-3")
 """The time stepping the v1 runs were measured with (the iterated Picard loop from u^n, CFL 0.3, the
-pattern rebuilt every step: the defaults through session 24), pinned with v1 so that a change of
-those defaults leaves v1 as measured."""
+pattern rebuilt every step: the defaults through session 24; the examples' dt_max 1 ms, not the
+study's :data:`DT_MAX`), pinned with v1 so that a change of those defaults leaves v1 as measured."""
 V1_OPTIONS = ("numerics.advection=upwind", "numerics.surface=threshold",
               f"numerics.gravity_blend_velocity={GRAVITY_BLEND}") + LOOP_OPTIONS
 """``--set`` overrides of scheme v1 for :func:`run_one`'s ``extra`` (tests)."""
@@ -151,7 +158,7 @@ def overrides(a: float, n: float, max_steps: int | None = None) -> list[str]:
     out = [f"setup.H0={H0}", f"setup.L0={g['L0']!r}", f"grid.nx={g['nx']}", f"grid.nz={g['nz']}",
            f"grid.Lx={g['Lx']!r}", f"grid.Lz={g['Lz']!r}", f"time.stop_time={STOP_TIME}",
            f"time.stop_at_rest={STOP_AT_REST}", f"output.interval={OUTPUT_INTERVAL}",
-           f"output.rest_speed={REST_SPEED}",
+           f"output.rest_speed={REST_SPEED}", f"time.dt_max={DT_MAX}",
            'numerics.linear_solver="auto"', 'output.fields=["phi"]', "output.figures=false",
            "output.checkpoint_interval=1000000"]
     if max_steps is not None:

@@ -110,6 +110,7 @@ def overrides(a: float, state: str, n: float, max_steps: int | None = None) -> l
            f"grid.Lx={g['Lx']!r}", f"grid.Lz={g['Lz']!r}", f"time.stop_time={DR.STOP_TIME}",
            f"time.stop_at_rest={DR.STOP_AT_REST}", f"output.interval={DR.OUTPUT_INTERVAL}",
            f"output.rest_speed={DR.REST_SPEED}", f"numerics.gravity_blend_velocity={DR.GRAVITY_BLEND}",
+           f"time.dt_max={DR.DT_MAX}",  # the dry partners' time step (validation/dry_runout)
            'numerics.linear_solver="auto"', 'output.fields=["phi", "p_f"]', "output.figures=false",
            "output.checkpoint_interval=1000000",
            "output.probes_x=[" + ", ".join(f"{x:.6g}" for x in (g["L0"] / 2, g["L0"] + H0 / 2)) + "]"]
