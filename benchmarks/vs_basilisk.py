@@ -62,6 +62,8 @@ from pathlib import Path
 
 import numpy as np
 
+from granflow.config.overrides import CONVERGED_LOOP
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
@@ -76,8 +78,7 @@ FRONT_THRESHOLD = 0.05
 """Deposit thickness defining the front [H0] on both codes."""
 PROFILE_X = tuple(np.round(np.arange(0.0, 3.5 + 1e-9, 0.25), 2))
 """Stations of Basilisk's h(x) at t = 4 [H0]."""
-LOOP = ["numerics.picard.max_sweeps=10", "numerics.picard.predictor=previous", "time.cfl=0.3",
-        "numerics.ambient.velocity_band_margin=0"]
+LOOP = list(CONVERGED_LOOP)
 """The converged Picard loop, the defaults until session 25 (2026-12-06)."""
 ONE_SOLVE = ["numerics.picard.max_sweeps=1", "numerics.picard.predictor=extrapolated"]
 VARIANTS = {

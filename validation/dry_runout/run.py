@@ -55,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
+from granflow.config.overrides import CONVERGED_LOOP
 from granflow.verification.convergence import richardson
 from granflow.verification.scripts import load_json, load_script, save_json
 
@@ -102,8 +103,7 @@ GRAVITY_BLEND = 7.5e-4
 """[m/s] the examples' scheme-v1 default eps Lz with Lz = 0.15 m: to be set with the threshold
 surface, whose default depends on Lz (:data:`V1_OPTIONS`); the indicator surface's default,
 ``|g| dt``, does not."""
-LOOP_OPTIONS = ("numerics.picard.max_sweeps=10", "numerics.picard.predictor=previous", "time.cfl=0.3",
-                "numerics.ambient.velocity_band_margin=0", "time.dt_max=1e-3")
+LOOP_OPTIONS = CONVERGED_LOOP + ("time.dt_max=1e-3",)
 """The time stepping the v1 runs were measured with (the iterated Picard loop from u^n, CFL 0.3, the
 pattern rebuilt every step: the defaults through session 24; the examples' dt_max 1 ms, not the
 study's :data:`DT_MAX`), pinned with v1 so that a change of those defaults leaves v1 as measured."""

@@ -52,6 +52,7 @@ from scipy.ndimage import distance_transform_cdt, median_filter
 from granflow import diagnostics as dg
 from granflow.cases import CASES
 from granflow.config import load_case
+from granflow.config.overrides import CONVERGED_LOOP
 from granflow.physics import momentum as mom
 from granflow.physics import momentum_transport as mt
 from granflow.physics.transport import advect
@@ -70,8 +71,7 @@ SCHEME_NUMERICS = {"upwind": ("upwind", "threshold"), "muscl": ("muscl", "thresh
 """(numerics.advection, numerics.surface) per scheme: the first three pin the threshold surface
 (the v1 runs of the README, made before the indicator surface existed); "v2" is the default
 numerics since 180fbc3 (consistent transport and the indicator surface)."""
-LOOP_OPTIONS = ("numerics.picard.max_sweeps=10", 'numerics.picard.predictor="previous"', "time.cfl=0.3",
-                "numerics.ambient.velocity_band_margin=0")
+LOOP_OPTIONS = CONVERGED_LOOP
 """The time stepping the threshold-surface (v1) studies were measured with: the iterated Picard
 loop from u^n, CFL 0.3, the pattern rebuilt every step (the defaults through session 24), pinned
 with them so that a change of those defaults leaves them as measured ("v2" follows the defaults)."""

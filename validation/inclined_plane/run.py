@@ -78,7 +78,8 @@ no steady packing (I_theta = 3.0, phi_eq < 0: refused by the case), hence 0.05 t
 REST_LEVELS = (20, 40)
 REST_T_END = {(28.0, 0.05): 25.0}
 """Longer runs for the rows that relax more slowly [s]: with one solve per step (the defaults since
-session 25) the 28 deg, beta = 0.05 layer is still accelerating at 20 s (session 24 preview)."""
+session 25) the 28 deg, beta = 0.05 layer is still accelerating at 20 s (session 22's preview,
+docs/solver.md)."""
 REST_HEADROOM = 1.3
 """Box height over h0 of the from-rest runs (the layer dilates from phi_max by up to 25 %)."""
 STEADY_WINDOW = 2.0
@@ -218,7 +219,7 @@ def rest_table(rows) -> str:
     out = ["| theta [deg] | beta | cells over h | t_end [s] | err u_s | drift (last 2 s) | median phi - phi_eq | steps | wall [s] |",
            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
-        out.append(f"| {r['theta_deg']:g} | {r['beta']:g} | {r['nz']} | {r.get('t_end', T_END):g} | {r['err_us']:+.3e} | "
+        out.append(f"| {r['theta_deg']:g} | {r['beta']:g} | {r['nz']} | {r['t_end']:g} | {r['err_us']:+.3e} | "
                    f"{r['drift']:.1e} | {r['dphi']:+.2e} | {r['steps']} | {r['wall']:.1f} |")
     return "\n".join(out)
 

@@ -22,6 +22,11 @@ EXTRA_SET_ENV = "GRANFLOW_EXTRA_SET"
 """Environment variable of extra ``--set`` items applied after the command line's, for tests that
 run the documentation's commands on small grids: ``;``-separated ``key=value`` items, each
 optionally scoped to one case as ``case:key=value``. Unset in normal use."""
+CONVERGED_LOOP = ("numerics.picard.max_sweeps=10", 'numerics.picard.predictor="previous"', "time.cfl=0.3",
+                  "numerics.ambient.velocity_band_margin=0")
+"""``--set`` items restoring the step that was the default from session 12 to 24: the Picard loop
+iterated to ``tol`` from ``u^n``, CFL 0.3, the pattern rebuilt every step (docs/solver.md,
+"Session 25: the switch"). Validations measured with it pin it (scheme v1's runs, benchmarks)."""
 
 
 def parse_value(text: str, key: str = "value") -> Any:
