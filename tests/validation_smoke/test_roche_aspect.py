@@ -16,9 +16,9 @@ def aspect():
     return load_script("validation/roche/aspect.py", "roche_aspect", cached=True)
 
 
-def _row(state, a, dx, runout, x9, x99, rest=1.0):
+def _row(state, a, dx, runout, x9, x99, rest=1.0, dt_max=2.5e-4):
     return {"state": state, "a": a, "dx_m": dx, "L0_m": 0.4 / a, "runout_rest_m": runout, "t_rest_s": rest,
-            "wall_contact": {}, "beyond_gate_m": {"0.5": x9 / 2, "0.9": x9, "0.99": x99}}
+            "wall_contact": {}, "beyond_gate_m": {"0.5": x9 / 2, "0.9": x9, "0.99": x99}, "dt_max_s": dt_max}
 
 
 def test_ratios_of_synthetic_rows(aspect):
@@ -70,3 +70,17 @@ def test_several_aspects_in_one_call_store_each_row_once(aspect, monkeypatch, tm
     keys = [(r["a"], r["dx_m"], r["state"]) for r in rows]
     assert len(keys) == len(set(keys)) == 6
     assert {r["a"]: r["runout_rest_m"] for r in rows} == {1.0: 2.0, 2.0: 2.0, 4.0: 0.5}
+
+
+def test_stored_rows_at_another_time_step_are_dropped(aspect, monkeypatch, tmp_path):
+    """A stored row at another dt_max (or recording none: the 1 ms rows of sessions 20-25) is not
+    merged with rows at :data:`DT_MAX`: a table mixing time steps is no convergence study."""
+    assert aspect.DT_MAX == 2.5e-4  # the rows of _row
+    store = tmp_path / "aspect.json"
+    old = _row("dry", 2.0, 0.01, 0.5, 0.3, 0.4)
+    del old["dt_max_s"]
+    stored = [_row("dry", 1.0, 0.01, 0.5, 0.3, 0.4, dt_max=1e-3), old, _row("dry", 4.0, 0.01, 0.5, 0.3, 0.4)]
+    store.write_text(json.dumps({"rows": stored}))
+    monkeypatch.setattr(aspect, "ASPECT_JSON", store)
+    rows = aspect.merged([_row("fluidised", 1.0, 0.02, 2.0, 1.2, 1.8)])
+    assert [(r["a"], r["dx_m"]) for r in rows] == [(1.0, 0.02), (4.0, 0.01)]

@@ -11,15 +11,20 @@ the levels the change of each ratio (the uncertainty quoted is the difference be
 finest levels: with two levels no order can be fitted). Roche (2012) reports fluidised run-outs
 about twice the dry ones (as quoted in issue 13; no data digitised here).
 
+Every level runs at ``time.dt_max`` = :data:`DT_MAX` (0.25 ms; not ``--quick``).
+
 Run:   python validation/roche/aspect.py [--quick] [--dx 0.02,0.01] [--aspects 0.5,1,2,4] [--report]
-Time:  ~10 min at 2 cm, ~30 min at 1 cm, ~2.5 h at 0.5 cm on one core; ``--quick``: 4 cm cells, 0.4 s, a = 1.
+Time:  (at 0.25 ms) see validation/roche/README.md; ``--quick``: 4 cm cells, 0.4 s, a = 1, the
+       examples' dt_max.
 Output: aspect.json beside this script (not with --quick; new levels and aspects are merged into
-the stored ones after each aspect ratio; an (a, dx) whose L0 is not a whole number of cells is
+the stored ones at the same dt_max after each aspect ratio, under a lock, so that two calls with
+different aspects can run side by side; an (a, dx) whose L0 is not a whole number of cells is
 skipped), the table on stdout.
 """
 from __future__ import annotations
 
 import argparse
+import fcntl
 import json
 import sys
 from pathlib import Path
@@ -34,6 +39,14 @@ ASPECTS = (0.5, 1.0, 2.0, 4.0)
 H0, CHANNEL_M = 0.4, 3.0
 """Column height [m] (the example's) and channel length beyond the gate [m]."""
 ASPECT_JSON = HERE / "aspect.json"
+DT_MAX = 2.5e-4
+"""time.dt_max of every level [s] (the examples' 1e-3 until session 26). With one solve per step
+(the defaults since session 25) the coarse levels, which run at dt_max, carried an O(dt) error as
+large as the mesh error: at a = 4 the 1 ms bulk ratios 1.363, 1.352, 1.340 (2, 1, 0.5 cm) fell
+~0.9 % a halving, at 0.25 ms they are 1.354, 1.347, 1.349 (validation/roche/README.md; as
+validation/dry_runout's ``DT_MAX``)."""
+STORED_DT_MAX = 1e-3
+"""dt_max [s] of stored rows that do not record theirs (those of sessions 20-25)."""
 KEEP = ("state", "dx_m", "L0_m", "status", "t_rest_s", "runout_rest_m", "wall_contact", "wall_s", "x_quantile_m")
 
 
@@ -42,9 +55,12 @@ def aspect_run(state: str, a: float, dx: float, quick: bool) -> dict:
     L0 = H0 / a
     lx = L0 + CHANNEL_M
     more = (f"setup.L0={L0:g}", f"grid.Lx={lx:g}", f"grid.nx={round(lx / dx)}")
+    more += () if quick else (f"time.dt_max={DT_MAX:g}",)
     r = channel.channel_run(state, dx, quick, more=more, tag=f"_a{a:g}")
     out = {k: r[k] for k in KEEP if k in r}
     out.update(a=a, beyond_gate_m={q: x - L0 for q, x in r["x_quantile_m"].items()})
+    if not quick:
+        out["dt_max_s"] = DT_MAX
     return out
 
 
@@ -130,12 +146,27 @@ def converged_table(rows: list[dict]) -> str:
 
 
 def merged(rows: list[dict]) -> list[dict]:
-    """``rows`` and the stored rows of aspect.json for the other (a, dx)."""
+    """``rows`` and the stored rows of aspect.json for the other (a, dx) run at the same
+    :data:`DT_MAX` (rows at another dt_max are dropped: a table mixing time steps is no study)."""
     if not ASPECT_JSON.exists():
         return rows
     done = {(r["a"], r["dx_m"]) for r in rows}
-    old = [r for r in json.loads(ASPECT_JSON.read_text())["rows"] if (r["a"], r["dx_m"]) not in done]
+    old = [r for r in json.loads(ASPECT_JSON.read_text())["rows"]
+           if (r["a"], r["dx_m"]) not in done and r.get("dt_max_s", STORED_DT_MAX) == DT_MAX]
     return sorted(old + rows, key=lambda r: (r["a"], -r["dx_m"], r["state"] != "fluidised"))
+
+
+def store(new: list[dict]) -> list[dict]:
+    """Merge ``new`` into aspect.json and write it, holding an exclusive lock on a lock file in
+    the runs' directory (two calls with different aspects may store at the same moment); the
+    merged rows."""
+    channel.RUN_DIR.mkdir(parents=True, exist_ok=True)
+    with open(channel.RUN_DIR / "aspect.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        rows = merged(new)  # this call's rows over the stored ones (each (a, dx) once)
+        ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows), "converged": converged(rows)},
+                                          indent=1) + "\n")
+    return rows
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -156,9 +187,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             new = new + run(dx, args.quick, None if a is None else (a,))
             rows = new
             if not args.quick:  # stored after each aspect ratio: a later failure loses nothing
-                rows = merged(new)  # this call's rows over the stored ones (each (a, dx) once)
-                ASPECT_JSON.write_text(json.dumps({"rows": rows, "ratios": ratios(rows), "converged": converged(rows)},
-                                                  indent=1) + "\n")
+                rows = store(new)
     print(table(rows) + "\n\n" + converged_table(rows))
     return rows
 
