@@ -13,7 +13,8 @@ Discrete quantities (dV = dx dz):
 
 Energy budget (:class:`EnergyBudget`): ``err(t) = E_k + E_p - (E_k + E_p)(0) + int_0^t (D_y + D_d) dt``,
 reported relative to the released potential energy ``E_p(0) - E_p(t)``. Dotting the discrete
-momentum equation with ``u^{n+1} dV`` shows that ``err`` is exactly the sum of four numerical terms,
+momentum equation with ``u^{n+1} dV`` shows that ``err`` is exactly the sum of four numerical terms
+(five with the linear solve's error, below),
 which the budget also accumulates:
 
 * ``-int BE dt``, BE = ``sum rho_f |u^{n+1} - u^n|^2 dV / (2 dt)`` (backward Euler, <= 0 contribution);
@@ -21,6 +22,12 @@ which the budget also accumulates:
 * ``sum 1/2 (rho_f^{n+1} - rho_f^n) |u^{n+1}|^2 dV`` (inertia carried by the phi transport);
 * ``sum [E_p^{n+1} - E_p^n + dt dV f_g . u^{n+1}]`` (gravity/transport mismatch: centred phi_f in
   the gravity force versus MUSCL fluxes in the transport; includes the clipping).
+
+The identity assumes the step's linear system solved exactly; the solve's error ``r = K x - b``
+on the velocity rows adds ``sum dt dV r_u . u^{n+1}``, booked as a fifth term, ``linear_solve``
+(~1e-9 of the released energy with a kept PARDISO analysis, round-off otherwise); on the gas rows
+(scaled by ``-1/p_atm``) it adds ``-sum dt p_atm dV e'(p_f) . r_g``, ``gas_linear_solve``
+(:attr:`granflow.model_options.StepReport.solve_power`, :class:`granflow.physics.coupling.GasPowers`).
 
 Fluidised model (MODEL.md §5, paper Theorem th1): the budget adds the gas energy
 ``E_1 = sum (1 - phi) e(p_f) dV``, ``e(p) = (p_atm + p) ln(1 + p/p_atm) - p`` (LOG, paper eq. H(p)
@@ -32,10 +39,10 @@ LINEAR law, unweighted for NONLINEAR) and the injected power, so that
 
 The pressure work ``W_f = dV sum p_f Div u`` enters the mechanical budget (``+W_f`` from
 ``-Grad p_f``) and the gas budget (``-W_f`` from ``p_atm Div u``) with opposite signs:
-``err = err_mech + err_gas + int (W_f^mom - W_f^gas) dt``, where ``err_mech`` is the sum of the four
-terms above and ``err_gas`` the sum of the four gas terms of
+``err = err_mech + err_gas + int (W_f^mom - W_f^gas) dt``, where ``err_mech`` is the sum of the five
+terms above and ``err_gas`` the sum of the five gas terms of
 :class:`granflow.physics.coupling.GasPowers` (backward Euler, cells turned ambient,
-transport/compression, diffusion); the last integral is round-off (``Grad = -Div^T``) and is kept
+transport/compression, diffusion, linear solve); the last integral is round-off (``Grad = -Div^T``) and is kept
 in :attr:`EnergyBudget.numerical` as ``pressure_work_mismatch`` so that the terms sum to ``err``.
 
 Open boundaries (:mod:`granflow.physics.outflow`, :mod:`granflow.physics.inflow`): the kinetic,
@@ -302,11 +309,12 @@ class EnergyBudget:
     dissipated_yield: float = 0.0
     dissipated_dilatancy: float = 0.0
     numerical: dict = field(default_factory=lambda: dict(
-        backward_euler=0.0, advection=0.0, inertia_transport=0.0, gravity_transport=0.0,
-        gas_backward_euler=0.0, gas_ambient=0.0, gas_transport=0.0, gas_diffusion=0.0,
+        backward_euler=0.0, advection=0.0, inertia_transport=0.0, gravity_transport=0.0, linear_solve=0.0,
+        gas_backward_euler=0.0, gas_ambient=0.0, gas_transport=0.0, gas_diffusion=0.0, gas_linear_solve=0.0,
         pressure_work_mismatch=0.0))
-    """The numerical contributions to ``err`` [J m^-1] (four mechanical, four gas, and the
-    pressure-work round-off); they sum to :attr:`residual`."""
+    """The numerical contributions to ``err`` [J m^-1] (five mechanical, five gas, and the
+    pressure-work round-off; a linear solve's error is the fifth of each); they sum to
+    :attr:`residual`."""
     e_10: float = 0.0
     e_1: float = 0.0
     """Gas energy at the start and now [J m^-1]."""
@@ -356,6 +364,7 @@ class EnergyBudget:
         self.e_p0 -= jump
         self.numerical["backward_euler"] -= dt * report.inertia_dissipation
         self.numerical["advection"] -= dt * report.advection_power
+        self.numerical["linear_solve"] += dt * getattr(report, "solve_power", 0.0)
         out, put_in = getattr(report, "outflow", None), getattr(report, "inflow", None)
         out_k, out_p, out_1 = (0.0, 0.0, 0.0) if out is None else (out.kinetic, out.potential, out.gas)
         in_k, in_p, in_1 = (0.0, 0.0, 0.0) if put_in is None else (put_in.kinetic, put_in.potential, put_in.gas)
@@ -381,6 +390,7 @@ class EnergyBudget:
             self.numerical["gas_ambient"] += dt * gas.ambient
             self.numerical["gas_transport"] += dt * gas.transport
             self.numerical["gas_diffusion"] += dt * gas.diffusion
+            self.numerical["gas_linear_solve"] += dt * gas.linear_solve
             self.numerical["pressure_work_mismatch"] += dt * (gas.work_momentum - gas.work)
             self.dissipated_darcy += dt * gas.darcy
             self.injected += dt * gas.injection
@@ -416,14 +426,14 @@ class EnergyBudget:
     @property
     def residual_mechanical(self) -> float:
         """``E_k + E_p - (E_k + E_p)(0) + int (D_y + D_d - W_f^mom) dt`` [J m^-1]: the sum of the
-        four mechanical numerical terms."""
+        five mechanical numerical terms."""
         return (self.e_k + self.e_p - self.e_k0 - self.e_p0 + self.dissipated_yield
                 + self.dissipated_dilatancy - self.pressure_work_momentum + self.outflow_mechanical
                 - self.inflow_mechanical - self.source_work)
 
     @property
     def residual_gas(self) -> float:
-        """``E_1 - E_1(0) + int (D_darcy + W_f^gas - P_inj) dt`` [J m^-1]: the sum of the four gas
+        """``E_1 - E_1(0) + int (D_darcy + W_f^gas - P_inj) dt`` [J m^-1]: the sum of the five gas
         numerical terms."""
         return (self.e_1 - self.e_10 + self.dissipated_darcy + self.pressure_work_gas - self.injected
                 + self.outflow_gas - self.inflow_gas)

@@ -443,7 +443,7 @@ class Model(ClosureCoefficients, GravityWeights, GeometryWeights, FieldMaps):
         if ex.gas_sys is not None:
             t0 = time.perf_counter()
             phi_gas = tr.phi if tr.c is None else packing(tr.c, tr.phi)  # the gas's packing
-            gas_powers = self.gas_coupling.powers(ex.gas_sys, im.p_f, im.u, phi_gas)
+            gas_powers = self.gas_coupling.powers(ex.gas_sys, im.p_f, im.u, phi_gas, im.residual_gas)
             tim["assembly"] += time.perf_counter() - t0
             state.p_f = im.p_f.reshape(self.grid.cell_shape)
         out = self._absorb(state, tr, im.u, im.p_f if ex.gas_sys is not None else None)

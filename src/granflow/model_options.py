@@ -293,6 +293,10 @@ class StepReport:
     """``dV sum rho_f a^n . u^{n+1}`` (upwind advection work)."""
     gravity_power: float = 0.0
     """``dV sum f_g . u^{n+1}``."""
+    solve_power: float = 0.0
+    """``dV r_u . u^{n+1}``, ``r_u = K x - b`` the linear solve's error on the velocity rows (the
+    energy budget's ``linear_solve`` term; ~1e-9 of the other powers with a kept PARDISO
+    analysis, round-off with a fresh one)."""
     timings: dict = field(default_factory=dict)
     """Wall time per phase [s]: 'assembly', 'solve', 'transport'."""
     gas: GasPowers | None = None

@@ -135,8 +135,8 @@ def _summarise(messages: list[str]) -> str:
 
 
 LATER_BUDGET_FIELDS = ("outflow_mechanical", "outflow_potential", "outflow_gas", "inflow_mechanical",
-                       "inflow_potential", "inflow_gas", "source_work")
-"""Energy-budget fields a checkpoint written before they existed lacks (0 then: a closed box)."""
+                       "inflow_potential", "inflow_gas", "source_work", "linear_solve", "gas_linear_solve")
+"""Energy-budget fields and numerical terms a checkpoint written before they existed lacks (0 then)."""
 
 
 @dataclass
@@ -469,13 +469,13 @@ class Simulation:
                     if budget[f.name].shape != value.shape:
                         raise GranflowInputError(f"checkpoint: {key} does not fit the grid")
                 elif isinstance(value, dict):
-                    budget[f.name] = {k: float(scalars[f"{key}.{k}"]) for k in value}
+                    budget[f.name] = {k: float(scalars[f"{key}.{k}"] if k not in LATER_BUDGET_FIELDS
+                                               else scalars.get(f"{key}.{k}", 0.0)) for k in value}
                 elif isinstance(value, (int, float)):  # (fields added later start from their default)
                     budget[f.name] = type(value)(scalars[key] if f.name not in LATER_BUDGET_FIELDS
                                                  else scalars.get(key, f.default))
-            # a total added after the checkpoint was written restarts from its default
             totals = RunTotals(**{f.name: type(f.default)(scalars.get(f"totals.{f.name}", f.default))
-                                  for f in fields(RunTotals)})
+                                  for f in fields(RunTotals)})  # (a total added since: its default)
             n_rejected = int(scalars["n_rejected"])
         except KeyError as err:
             raise GranflowInputError(f"checkpoint: missing entry {err}") from None

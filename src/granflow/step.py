@@ -168,6 +168,12 @@ class Implicit:
     dilation: np.ndarray | None = None
     """Indicator surface: the dilatancy law's rate ``b - C p_fric`` in the thin cells [s^-1]
     (0 elsewhere), for their material's dilatation in the transport."""
+    residual_u: np.ndarray | None = None
+    """``K x - rhs`` of the last solve on the velocity rows, on every unknown (0 off the band)
+    [N m^-3]: the linear solve's error, whose power the energy budget books (``linear_solve``)."""
+    residual_gas: np.ndarray | None = None
+    """The same on the scaled gas rows of the wet cells (``-1/p_atm`` times the gas equation,
+    :meth:`granflow.physics.coupling.GasSystem.scaled_rhs`) [s^-1], else None."""
 
 
 def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
@@ -343,6 +349,13 @@ def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
     return ex.strain(u_k)
 
 
+def solve_error(K, sol, rhs, layout: SaddleLayout, gas: bool) -> dict:
+    """The last solve's error ``r = K x - b`` on the velocity rows (every unknown, 0 off the band)
+    and on the gas rows (if ``gas``): :attr:`Implicit.residual_u`, :attr:`Implicit.residual_gas`."""
+    r = K @ sol - rhs
+    return {"residual_u": layout.velocity(r), "residual_gas": layout.gas(r) if gas else None}
+
+
 def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit:
     """Stage 2: the Picard loop (module docstring of :mod:`granflow.model`, step 2)."""
     g, ops = model.grid, model.ops
@@ -418,11 +431,11 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         raise StepFailed(f"Picard diverged (relative increment {rel:.3g})", sweeps)
     if ex.gas_sys is not None and np.any(p_f_new <= -model.material.p_atm):
         raise StepFailed("p_f below vacuum (p_f <= -p_atm)", sweeps)
-    dilation = (None if ex.thin is None
-                else np.where(ex.thin, coef.b - coef.C * ex.p_fric, 0.0))
+    dilation = None if ex.thin is None else np.where(ex.thin, coef.b - coef.C * ex.p_fric, 0.0)
     return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
                     rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
-                    changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation)
+                    changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation,
+                    **solve_error(K, sol, rhs, layout, ex.gas_sys is not None))
 
 
 @dataclass

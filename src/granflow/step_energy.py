@@ -35,4 +35,5 @@ def energy_terms(model, state, dt: float, ex, im) -> dict:
                 inertia_dissipation=0.5 * dV * float(model.on_unknowns(ex.rho_n) @ (du * du)) / dt,
                 advection_power=adv_pow,
                 gravity_power=dV * float(model.on_unknowns(ex.f_g - ex.drag * im.u) @ im.u) + src_drag,
-                source_power=src_power)
+                source_power=src_power,
+                solve_power=0.0 if im.residual_u is None else dV * float(im.residual_u @ im.u))

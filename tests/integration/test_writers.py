@@ -205,3 +205,21 @@ def test_basal_probes_record_their_history_and_restore_it(tmp_path):
     np.testing.assert_array_equal(np.array(again.p), np.array(probes.p))
     with pytest.raises(GranflowInputError, match=r"diagnostics\['probes'\].*schedule.*None"):
         collapse().diagnostics["probes"] = BasalProbes(sim.model.grid, [0.01])
+
+
+def test_a_checkpoint_from_before_the_linear_solve_terms_restores_them_as_zero():
+    """Checkpoints written before session 26 hold no ``budget.numerical.linear_solve`` nor
+    ``gas_linear_solve`` (simulation.LATER_BUDGET_FIELDS): they restart from 0; any other missing
+    budget term is still an error naming it."""
+    sim = collapse(stop_time=0.004)
+    sim.run()
+    arrays, scalars = sim.checkpoint_payload()
+    old = {k: v for k, v in scalars.items() if not k.endswith("linear_solve")}
+    assert len(old) == len(scalars) - 2
+    restarted = collapse()
+    restarted.restore_checkpoint(arrays, old)
+    assert restarted.budget.numerical["linear_solve"] == restarted.budget.numerical["gas_linear_solve"] == 0.0
+    assert restarted.budget.numerical["advection"] == sim.budget.numerical["advection"] != 0.0
+    broken = {k: v for k, v in scalars.items() if k != "budget.numerical.advection"}
+    with pytest.raises(GranflowInputError, match="budget.numerical.advection"):
+        collapse().restore_checkpoint(arrays, broken)

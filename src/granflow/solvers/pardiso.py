@@ -83,9 +83,9 @@ _IPARM_SETTINGS = {
 saddle-point symmetric indefinite systems, whose residual is 1e-10 without them). iparm(8), the
 iterative refinement, is :attr:`PardisoSolver.Parameters.refinement_steps`."""
 _IPARM_REFINEMENT = 8
+"""1-based iparm entry of the maximum number of iterative refinement steps."""
 MAX_REFINEMENT_STEPS = 10
 """Upper bound of :attr:`PardisoSolver.Parameters.refinement_steps` (a sanity bound)."""
-"""1-based iparm entry of the maximum number of iterative refinement steps."""
 DEFAULT_REFINEMENT_STEPS = 0
 """iparm(8) by default (:attr:`PardisoSolver.Parameters.refinement_steps`): MKL's default, which
 refines (two steps) only after perturbed pivots. Measured on the Lagree column at 128^2 to t = 4
@@ -111,15 +111,6 @@ singular. Found on a prepared (gas-injected) column at the release step, where P
 was 1.4e-8 at every dt (the run failed before the fallback existed)."""
 FALLBACK_RESIDUAL_LIMIT = 1.0e-6
 """The SuperLU fallback's solution must reach this relative residual, or the solve is an error."""
-REFINE_TARGET = 1.0e-13
-"""A solve with a kept analysis (:attr:`PardisoSolver.Parameters.analysis_steps` > 1) whose
-relative residual lies between this and :data:`RESIDUAL_LIMIT` is refined (:meth:`PardisoSolver.
-_refine`). Why: the scaling and matching of an earlier step's matrix leave residuals up to ~1e-9,
-and the energy budget's split identity (the numerical parts summing to the residual, 1e-16 with
-a fresh analysis) holds only to the solve's accuracy: 5.8e-10 on the dry column at 40 x 16 with
-one solve per step and margin 3 (SuperLU 3e-13); measured session 22."""
-KEPT_REFINEMENTS = 2
-"""Refinement steps at most (each one solve phase and one mat-vec)."""
 ANALYSIS_KEYS = ("analysis.indptr", "analysis.indices", "analysis.data")
 """Checkpoint arrays of a kept analysis (:meth:`PardisoSolver.checkpoint_payload`): its matrix, CSR."""
 KEPT_STEPS_KEY = "analysis.kept_steps"
@@ -170,7 +161,10 @@ class PardisoSolver(LinearSolver):
             an earlier step's matrix are reused (a solve whose residual then exceeds
             :data:`RESIDUAL_LIMIT` is first redone with a fresh analysis); :meth:`forget` ends the
             window (a checkpoint calls it, so that a restart and the continued run agree bit for
-            bit).
+            bit). Such solves leave relative residuals up to ~1e-9 (1e-15 with a fresh
+            analysis; MKL's perturbed pivots); they are not refined (up to session 25 one
+            refinement solve a step brought them to 1e-13, ~9 % of a 128² run): the energy budget
+            books the solve's error instead (``linear_solve``, :class:`granflow.diagnostics.EnergyBudget`).
         """
 
         ordering: PardisoOrdering = Field(PardisoOrdering.MINIMUM_DEGREE,
@@ -214,8 +208,6 @@ class PardisoSolver(LinearSolver):
         """Steps begun since the analysis was last forgotten."""
         self.reanalyses = 0
         """Solves redone with a fresh analysis after a kept one left a residual > RESIDUAL_LIMIT."""
-        self.refinements = 0
-        """Refinement steps of solves with a kept analysis (:data:`REFINE_TARGET`)."""
 
     def _set_type(self, mtype: MatrixType) -> None:
         """Matrix type and its iparm settings (the handle holds no factorisation)."""
@@ -313,9 +305,6 @@ class PardisoSolver(LinearSolver):
         if not np.all(np.isfinite(x)):
             raise LinearSolverError("pardiso: non-finite solution (singular matrix?)")
         res = relative_residual(A, x, b)
-        if not analysed and REFINE_TARGET < res <= RESIDUAL_LIMIT:
-            x, res = self._refine(A, M, b, x, res)
-            t2 = time.perf_counter()
         if not res <= RESIDUAL_LIMIT and not analysed and self.params.analysis_steps > 1:
             self.reanalyses += 1  # a kept analysis: analyse this matrix afresh first
             self.forget()
@@ -381,25 +370,6 @@ class PardisoSolver(LinearSolver):
         A.sort_indices()
         self._analyse(A)
         self._kept_steps = kept
-
-    def _refine(self, A: sp.csr_matrix, M: sp.csr_matrix, b: np.ndarray, x: np.ndarray,
-                res: float) -> tuple[np.ndarray, float]:
-        """Iterative refinement with the factors of a kept analysis (:data:`REFINE_TARGET`,
-        :data:`KEPT_REFINEMENTS`): ``x += A^-1 (b - A x)``, each step kept only if it lowers the
-        residual."""
-        nb = float(np.linalg.norm(b)) or 1.0  # (relative_residual's scale)
-        r = b - A @ x
-        for _ in range(KEPT_REFINEMENTS):
-            x_new = x + self._call(PardisoPhase.SOLVE, M, r)
-            r_new = b - A @ x_new
-            res_new = float(np.linalg.norm(r_new)) / nb
-            self.refinements += 1
-            if not res_new < res:
-                break
-            x, r, res = x_new, r_new, res_new
-            if res <= REFINE_TARGET:
-                break
-        return x, res
 
     def _stored(self, A: sp.csr_matrix) -> sp.csr_matrix:
         """What PARDISO is given: ``A``, or its upper triangle for the symmetric type."""
