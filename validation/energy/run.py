@@ -120,8 +120,8 @@ FINGERPRINT_CHARS = 12
 PHYSICS_SECTIONS = ("case", "setup", "material", "closure", "gas", "grid", "time", "numerics",
                     "walls", "gravity")
 TIME_KEYS = ("stop_time", "dt_max", "cfl", "max_retries")
-MECH_PARTS = ("backward_euler", "advection", "inertia_transport", "gravity_transport")
-GAS_PARTS = ("gas_backward_euler", "gas_ambient", "gas_transport", "gas_diffusion",
+MECH_PARTS = ("backward_euler", "advection", "inertia_transport", "gravity_transport", "linear_solve")
+GAS_PARTS = ("gas_backward_euler", "gas_ambient", "gas_transport", "gas_diffusion", "gas_linear_solve",
              "pressure_work_mismatch")
 
 
