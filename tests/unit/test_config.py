@@ -262,3 +262,20 @@ def test_option_names_come_from_the_model_enums_and_solvers_are_registered():
                                                 simulation.DEFAULT_MAX_RETRIES)
     assert NumericsSection().eps == DEFAULT_EPS
     assert f"{AUTO_BANDED_DIRECT_UNKNOWNS} unknowns" in NumericsSection.model_fields["linear_solver"].description
+
+
+@pytest.mark.parametrize(("sets", "advised"), [
+    (['numerics.surface="threshold"'], True),
+    (['numerics.surface="threshold"', "numerics.picard.max_sweeps=10"], False),
+    (["numerics.picard.max_sweeps=1"], False),
+])
+def test_the_threshold_surface_with_one_solve_is_advised_against(sets, advised):
+    """granflow.config.checks.advisories: the threshold surface with one solve per step (the
+    default since session 25) runs, with a warning that names both options and the converged loop's
+    settings; with the loop, or with the indicator surface, nothing is advised."""
+    from granflow.config.checks import advisories
+
+    got = advisories(load_case(ROOT / "examples" / "inclined_layer.toml", sets))
+    assert len(got) == advised
+    if advised:
+        assert "numerics.surface" in got[0] and "numerics.picard.max_sweeps=10" in got[0]

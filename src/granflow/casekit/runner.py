@@ -48,6 +48,7 @@ from granflow.casekit.restart import (
 )
 from granflow.casekit.step_clock import StepClock
 from granflow.config import CaseConfig
+from granflow.config.checks import advisories
 from granflow.errors import GranflowInputError
 from granflow.output import load_checkpoint, write_json_atomic
 from granflow.output.fields import (SI_KIND, UNIT_KINDS, BasalProbes, boundary_outputs, field_outputs,
@@ -191,7 +192,9 @@ class CaseRun:
         self.rest_speed = (out.rest_speed if out.rest_speed is not None
                            else REST_SPEED_FACTOR * config.numerics.eps * self.grid.Lz)
         self.progress = progress
-        self.warnings: list[str] = []
+        self.warnings: list[str] = advisories(config)  # option combinations not validated
+        for text in self.warnings:
+            logger.warning("granflow: warning: %s", text)
         self.mass0 = dg.mass(self.grid, self.sim.state.phi)
         self.wall_before = 0.0
         self._session_t0 = (self.sim.state.t, time.perf_counter())

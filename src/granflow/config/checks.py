@@ -96,3 +96,17 @@ def yield_problems(cfg) -> list[tuple[str, str]]:
     k = negative[0]
     return [(key, f"the yield function is negative on the equilibrium line: Z(phi_eq(I), I) = "
                   f"{Z[k]:.3g} at I = {I[keep][k]:.3g} (a negative friction coefficient)")]
+
+
+def advisories(cfg) -> list[str]:
+    """Option combinations that run but were not validated (warnings, not errors; any case): the
+    threshold surface with one solve per step (its validations pinned the converged loop, and
+    with one solve the inclined-plane layer stayed unsteady, +57-60 % on u_s: validation/inclined_plane)."""
+    out = []
+    if cfg.numerics.surface == "threshold" and cfg.numerics.picard.max_sweeps == 1:
+        out.append('numerics.surface = "threshold" with one solve per step (numerics.picard.max_sweeps = 1, '
+                   "the default): the threshold surface was validated with the converged Picard loop, and "
+                   "with one solve an inclined layer stayed unsteady (+57-60 % on its surface speed); add "
+                   "--set numerics.picard.max_sweeps=10 --set numerics.picard.predictor=previous "
+                   "--set time.cfl=0.3 --set numerics.ambient.velocity_band_margin=0 (docs/cases.md, numerics.surface)")
+    return out
