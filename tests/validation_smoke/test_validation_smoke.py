@@ -26,13 +26,14 @@ QUICK_TESTED_ELSEWHERE = {"validation/basilisk_column/run.py": "test_basilisk_co
                           "validation/theory/make_figures.py": "test_theory_figures_quick",
                           "validation/roche/slope.py": "test_roche_slope.py::test_quick_runs_on_a_slope_spread_further_than_on_the_flat",
                           "validation/roche/aspect.py": "test_roche_aspect.py::test_quick_run",
+                          "validation/roche/limits.py": "test_roche_limits.py::test_quick_run",
                           "validation/roche/defluidisation.py": "test_roche_defluidisation.py",
                           "validation/topography/run.py": "test_validation_topography.py",
                           "validation/axisymmetric/run.py": "test_validation_axisymmetric.py"}
 
 
 def test_the_script_list_is_complete():
-    assert len(SCRIPTS) == 18 and "validation/fluidised_vs_dry/convergence.py" in SCRIPTS
+    assert len(SCRIPTS) == 19 and "validation/fluidised_vs_dry/convergence.py" in SCRIPTS
     assert "validation/roche/run.py" in SCRIPTS and "validation/roche/slope.py" in SCRIPTS
 
 
