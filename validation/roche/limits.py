@@ -38,6 +38,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+import aspect  # noqa: E402  (validation/roche/aspect.py: its DT_MAX)
 import run as channel  # noqa: E402  (validation/roche/run.py: the channel runs)
 
 VARIANTS = {
@@ -49,8 +50,8 @@ VARIANTS = {
 }
 """Variant name: the --set items of its fluidised run (module docstring)."""
 DRY = "dry"
-DT_MAX = 2.5e-4
-"""time.dt_max of every run [s] (as validation/roche/aspect.py's DT_MAX)."""
+DT_MAX = aspect.DT_MAX
+"""time.dt_max of every run [s]: the aspect study's, so that the protocol row is its a = 2, 2 cm run."""
 QUICK_VARIANTS = ("protocol", "supply_reservoir")
 LIMITS_JSON = HERE / "limits.json"
 KEEP = ("state", "dx_m", "L0_m", "status", "t_rest_s", "runout_rest_m", "wall_contact", "wall_s", "x_quantile_m",
