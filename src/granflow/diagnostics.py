@@ -93,12 +93,12 @@ def potential_energy(model, state) -> float:
     On a grid periodic in x with ``g_x != 0`` this is the energy in the current periodic frame:
     it jumps by ``rho_s g_x Lx m`` when a volume ``m`` leaves through ``x0 + Lx`` and re-enters at
     ``x0``; :class:`EnergyBudget` removes those jumps."""
-    X, Z = model.grid.cell_coords()
     gx, gz = model.gravity
     g = model.grid
+    geo = gx * g.xc[:, None] + gz * g.zc[None, :]  # g . x_c, (nx, nz) by broadcasting (no meshgrid)
     if g.axisymmetric:  # (a radial gravity is refused: gx = 0)
-        return -model.material.rho_s * float(np.sum(g.cell_volumes * state.phi * (gx * X + gz * Z)))
-    return -model.material.rho_s * g.cell_volume * float(np.sum(state.phi * (gx * X + gz * Z)))
+        return -model.material.rho_s * float(np.sum(g.cell_volumes * state.phi * geo))
+    return -model.material.rho_s * g.cell_volume * float(np.sum(state.phi * geo))
 
 
 def gas_energy_of(model, state) -> float:

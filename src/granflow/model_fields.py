@@ -240,13 +240,14 @@ class FieldMaps:
                                                 mode=self._filter_mode()), phi)
         return np.clip(out, PHI_FLOOR, self.material.phi_max).ravel()
 
-    def inertia_density(self, phi) -> np.ndarray:
+    def inertia_density(self, phi, phi_f=None) -> np.ndarray:
         """Face inertia [kg m^-3] at the velocity unknowns: ``rho_s phi_f + rho_a`` with the
         consistent momentum transport (the dual-cell mass of
         :mod:`granflow.physics.momentum_transport` plus a constant ambient floor), else
-        ``max(phi_f rho_s, rho_a)`` (v1, :func:`granflow.physics.momentum.face_density`)."""
+        ``max(phi_f rho_s, rho_a)`` (v1, :func:`granflow.physics.momentum.face_density`).
+        ``phi_f``: :meth:`dual_mean` of ``phi`` if already known (consistent transport only)."""
         if self.advection is mom.Advection.CONSISTENT:
-            phi_f = self.dual_mean(phi)
+            phi_f = self.dual_mean(phi) if phi_f is None else phi_f
             return self.material.rho_s * np.maximum(phi_f, 0.0) + self.ambient.rho_a
         return mom.face_density(self.ops, phi, self.material.rho_s, self.ambient.rho_a)
 
@@ -288,14 +289,14 @@ class FieldMaps:
         p = np.maximum(self.lithostatic_pressure(phi) - p_f, 0.0)
         return State.at_rest(self.grid, phi, p=p, p_f=p_f, c=self.material_of(phi))
 
-    def face_fraction(self, phi, c=None) -> np.ndarray:
+    def face_fraction(self, phi, c=None, phi_f=None) -> np.ndarray:
         """Solid fraction weighed at the velocity unknowns when they are at rest [-]: the centred
         mean of the two cells, and with the indicator surface on the interior z-faces the grains
         of the reconstructed material in the face's dual cell
         (:func:`granflow.physics.material.face_solid_fraction`), so that ``p = 0`` sits at the
-        surface."""
+        surface. ``phi_f``: :meth:`dual_mean` of ``phi`` if already known (not changed)."""
         phi = np.asarray(phi, dtype=float).reshape(self.grid.cell_shape)
-        out = self.dual_mean(phi)
+        out = self.dual_mean(phi) if phi_f is None else phi_f.copy()
         if self.indicator and c is not None:
             c = np.asarray(c, dtype=float).reshape(phi.shape)
             out[self.grid.w_slice] = face_solid_fraction(c, phi).ravel()  # interior z-faces

@@ -39,7 +39,7 @@ class GravityWeights:
             return self.gravity_blend_velocity
         return float(np.hypot(*self.gravity)) * dt
 
-    def gravity_split(self, phi, vel, dt: float, c=None, fluxes=None) -> tuple[np.ndarray, np.ndarray]:
+    def gravity_split(self, phi, vel, dt: float, c=None, fluxes=None, phi_f=None) -> tuple[np.ndarray, np.ndarray]:
         """Gravity force of the step as ``f_0 - drag * u^{n+1}`` [N m^-3], ``drag >= 0``
         [kg m^-3 s^-1].
 
@@ -55,13 +55,14 @@ class GravityWeights:
         (``p -> 0``, a fluidised bed) a surface at rest oscillates with growing amplitude.
         So that part is implicit (``drag`` joins the mass matrix); the rest (saturated
         faces ``|u^n| >= u_b``, anti-damping faces, or ``consistent_gravity=False``) is explicit.
-        ``fluxes``: :meth:`transport_fluxes` of ``(phi, vel, dt, c)`` if already known.
+        ``fluxes``: :meth:`transport_fluxes` of ``(phi, vel, dt, c)`` if already known; ``phi_f``
+        the :meth:`dual_mean` of ``phi`` if known.
         """
         g = self.grid
         rho_s = self.material.rho_s
         phi = np.asarray(phi, dtype=float).reshape(g.cell_shape)
         vel = np.asarray(vel, dtype=float)
-        centred = self.face_fraction(phi, c)
+        centred = self.face_fraction(phi, c, phi_f)
         if self.consistent_gravity:
             flux = g.pack_velocity(*(self.transport_fluxes(phi, vel, dt, c) if fluxes is None else fluxes))
             u_b = self.blend_velocity(dt)

@@ -142,6 +142,9 @@ class Explicit:
     pressure_cells: np.ndarray | None = None
     """Cells whose p is an unknown with PARDISO's stable pattern (:func:`step_region`; None: the
     dense cells)."""
+    phi_f: np.ndarray | None = None
+    """``phi^n`` at the velocity unknowns, :meth:`granflow.model.Model.dual_mean` (the dual-cell
+    mean), computed once per step."""
 
 
 @dataclass
@@ -183,11 +186,12 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     dense = model.dense(phi, state.c)
     iso = (model.interface_band(phi, model.isochoric_interface).ravel()
            if model.isochoric_interface else None)
-    rho_n = model.inertia_density(phi)
+    phi_f = model.dual_mean(phi)  # (shared: inertia, gravity weight, the consistent transport's mass)
+    rho_n = model.inertia_density(phi, phi_f if model.advection is mom.Advection.CONSISTENT else None)
     window = material_window(model.grid, state.c, phi) if state.c is not None else None
     fluxes_n = (model.transport_fluxes(phi, state.vel, dt, state.c, window)
                 if model.consistent_gravity or model.advection is mom.Advection.CONSISTENT else None)
-    f_g, drag = model.gravity_split(phi, state.vel, dt, state.c, fluxes_n)
+    f_g, drag = model.gravity_split(phi, state.vel, dt, state.c, fluxes_n, phi_f)
     adv = None
     if model.advection is mom.Advection.CONSISTENT:
         rhs_u = rho_n * state.vel / dt + f_g
@@ -226,7 +230,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
                     drag=drag, rhs_u=rhs_u, adv=adv, gas_sys=gas_sys, border=border,
                     rhs_gas=rhs_gas, keep=keep, region=region, thin=thin, p_fric=p_fric,
                     band_edge=edge, window=window, fluxes_n=fluxes_n, strain=model.strain_rate_on(dense),
-                    source=source, pressure_cells=pressure_cells)
+                    source=source, pressure_cells=pressure_cells, phi_f=phi_f)
 
 
 def hint_viscosity(model, eta) -> np.ndarray:
@@ -281,17 +285,17 @@ def _solve(model, K, rhs, x0, hints, tim: dict, sweeps: int):
         warnings.simplefilter("error")
         try:
             if model.linear_solver is None:
-                sol, its = spla.spsolve(K, rhs), 0
+                sol, its, error = spla.spsolve(K, rhs), 0, None
             else:
                 sol, info = model.linear_solver.solve(K, rhs, x0=x0(), hints=hints)
-                its = int(info.iterations)
+                its, error = int(info.iterations), info.error
         except Exception as err:  # singular matrix, SuperLU failure, Krylov non-convergence
             raise StepFailed(f"linear solve failed: {err}", sweeps) from None
         finally:
             tim["solve"] += time.perf_counter() - t1
     if not np.all(np.isfinite(sol)):
         raise StepFailed("non-finite solution of the linear system", sweeps)
-    return sol, its
+    return sol, its, error
 
 
 def base_node_viscosity(model, phi_e, dense, p_eval, p_f, S, dt: float, eta_c, eta_n, vel=None) -> np.ndarray:
@@ -349,10 +353,11 @@ def sweep_strain_rate(model, ex: Explicit, u_k, share) -> np.ndarray:
     return ex.strain(u_k)
 
 
-def solve_error(K, sol, rhs, layout: SaddleLayout, gas: bool) -> dict:
+def solve_error(K, sol, rhs, layout: SaddleLayout, gas: bool, error=None) -> dict:
     """The last solve's error ``r = K x - b`` on the velocity rows (every unknown, 0 off the band)
-    and on the gas rows (if ``gas``): :attr:`Implicit.residual_u`, :attr:`Implicit.residual_gas`."""
-    r = K @ sol - rhs
+    and on the gas rows (if ``gas``): :attr:`Implicit.residual_u`, :attr:`Implicit.residual_gas`.
+    ``error``: that ``r`` if the solver computed it (:attr:`granflow.solvers.SolveInfo.error`)."""
+    r = K @ sol - rhs if error is None or error.shape != rhs.shape else error
     return {"residual_u": layout.velocity(r), "residual_gas": layout.gas(r) if gas else None}
 
 
@@ -370,7 +375,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     floor = np.sqrt(g.n_unknowns) * model.eps * g.Lz
     changes, rel, n_negz, krylov, converged, sweeps = 0, np.inf, 0, 0, False, 0
     rho_k, flux_div, rhs_u, share = ex.rho_n, None, ex.rhs_u, None  # share: base_nodes
-    phi_f_n = model.dual_mean(state.phi) if consistent else None
+    phi_f_n = ex.phi_f if consistent else None
     window_n = ex.window if consistent else None
     for sweeps in range(1, sweep_cap(model, state) + 1):  # (one solve per step: 1 but at its start)
         t0 = time.perf_counter()
@@ -405,7 +410,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
         rhs = np.concatenate([layout.kept(model.on_unknowns(rhs_u)),
                               -model.on_cells(np.where(act, coef.b, 0.0))[layout.pressure]] + ex.rhs_gas)
         tim["assembly"] += time.perf_counter() - t0
-        sol, its = _solve(model, K, rhs, lambda: layout.guess(u_k, np.where(act, p_k, 0.0), K.shape[0]),
+        sol, its, error = _solve(model, K, rhs, lambda: layout.guess(u_k, np.where(act, p_k, 0.0), K.shape[0]),
                           SaddleHints(mass=mass, viscosity=hint_viscosity(model, coef.eta_c[act])), tim, sweeps)
         krylov += its
         u_new = layout.velocity(sol)
@@ -435,7 +440,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
                     rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
                     changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation,
-                    **solve_error(K, sol, rhs, layout, ex.gas_sys is not None))
+                    **solve_error(K, sol, rhs, layout, ex.gas_sys is not None, error))
 
 
 @dataclass

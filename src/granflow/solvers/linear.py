@@ -27,7 +27,7 @@ Model turns any exception of the solve into a rejected step, retried with a smal
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any, ClassVar, Mapping
 
@@ -90,6 +90,10 @@ class SolveInfo:
     rebuilt : bool
         True if the factorisation or a hierarchy was (re)built during this call.
     converged : bool
+    error : ndarray or None
+        ``A x - rhs`` of the returned solution when the solver computed it for ``residual``
+        (PARDISO and SuperLU), else None: the caller that books the solve's error (the energy
+        budget, :func:`granflow.step.solve_error`) then need not multiply again.
     """
 
     solver: str
@@ -100,6 +104,7 @@ class SolveInfo:
     solve_time: float
     rebuilt: bool
     converged: bool = True
+    error: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 def same_pattern(a: sp.spmatrix, b: sp.spmatrix | None) -> bool:
@@ -122,9 +127,16 @@ def canonical(A, fmt: str) -> sp.spmatrix:
 
 def relative_residual(A, x, b) -> float:
     """``|b - A x| / |b|`` (``|b - A x|`` if ``b = 0``)."""
+    return residual_and_error(A, x, b)[0]
+
+
+def residual_and_error(A, x, b) -> tuple[float, np.ndarray]:
+    """``(|A x - b| / |b|, A x - b)``: :func:`relative_residual` and the vector it is the norm of
+    (:attr:`SolveInfo.error`), from one product."""
+    r = A @ x - b
     nb = float(np.linalg.norm(b))
-    r = float(np.linalg.norm(b - A @ x))
-    return r / nb if nb > 0 else r
+    nr = float(np.linalg.norm(r))
+    return (nr / nb if nb > 0 else nr), r
 
 
 def check_system(A, rhs, x0=None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -283,9 +295,9 @@ class DirectSolver(LinearSolver):
         t2 = time.perf_counter()
         if not np.all(np.isfinite(x)):
             raise LinearSolverError("direct solver: non-finite solution (singular matrix?)")
-        res = relative_residual(A, x, b)
+        res, error = residual_and_error(A, x, b)
         return x, SolveInfo(solver=self.name, iterations=0, residual=res, scaled_residual=res,
-                            setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=not reuse)
+                            setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=not reuse, error=error)
 
 
 @LINEAR_SOLVERS.register("amg_cg")

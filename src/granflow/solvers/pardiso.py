@@ -37,7 +37,8 @@ from pydantic import Field
 from granflow.errors import GranflowInputError
 from granflow.params import Params
 from granflow.solvers.linear import (LINEAR_SOLVERS, LinearSolver, LinearSolverError, MatrixChange,
-                                     SolveInfo, check_system, relative_residual)
+                                     SolveInfo, check_system, relative_residual,
+                                     residual_and_error)
 from granflow.solvers.pardiso_mkl import (_new_pypardiso, _pardiso_call, _thread_local_setter,  # noqa: F401
                                           _transpose_permutation, _UpperTriangle, pardiso_available)
 
@@ -304,16 +305,17 @@ class PardisoSolver(LinearSolver):
         t2 = time.perf_counter()
         if not np.all(np.isfinite(x)):
             raise LinearSolverError("pardiso: non-finite solution (singular matrix?)")
-        res = relative_residual(A, x, b)
+        res, error = residual_and_error(A, x, b)
         if not res <= RESIDUAL_LIMIT and not analysed and self.params.analysis_steps > 1:
             self.reanalyses += 1  # a kept analysis: analyse this matrix afresh first
             self.forget()
             return self.solve(matrix, rhs, x0, MatrixChange.AUTO, hints)
         if not res <= RESIDUAL_LIMIT:
             x, res = self._fallback(A, b, res)
+            error = None
             t2 = time.perf_counter()
         return x, SolveInfo(solver=self.name, iterations=0, residual=res, scaled_residual=res,
-                            setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=analysed)
+                            setup_time=t1 - t0, solve_time=t2 - t1, rebuilt=analysed, error=error)
 
     def _analyse(self, A: sp.csr_matrix) -> None:
         """Phase 11 on ``A`` (CSR, sorted indices): symmetric type if ``A`` is exactly symmetric."""
