@@ -75,14 +75,25 @@ class MatrixType(int, Enum):
 
 _IPARM_USER = 1
 """iparm(1) = 1: the iparm array is filled by the caller."""
+SYMMETRIC_PIVOT_PERTURBATION = 6
+"""iparm(10) of the symmetric type: tiny pivots are perturbed to ``1e-6 |A|`` (MKL's default is 8,
+``1e-8``). With the analysis kept across steps (:attr:`PardisoSolver.Parameters.analysis_steps`)
+the scaling and matching come from an earlier matrix and most factorisations perturb some
+pivots; MKL then refines the solution twice. Measured on the Lagree column to t = 4
+(benchmarks/README.md, session 27): relative residuals median 9.5e-11 / max 4.8e-10 at 128^2 and
+3.1e-9 / 1.0e-8 at 256^2 (the :data:`RESIDUAL_LIMIT`: 5 reanalyses) with 1e-8, against 1.1e-14 /
+5.1e-14 and 3.3e-13 / 1.3e-12 with 1e-6, at the same PARDISO time; 1e-10 (iparm(10) = 10) puts
+most kept-analysis solves above the limit (~400 reanalyses at 128^2)."""
 _IPARM_SETTINGS = {
     MatrixType.UNSYMMETRIC: {1: _IPARM_USER, 10: 13, 11: 1, 13: 1},
-    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 10: 8, 11: 1, 13: 1, 21: 1},
+    MatrixType.SYMMETRIC_INDEFINITE: {1: _IPARM_USER, 10: SYMMETRIC_PIVOT_PERTURBATION, 11: 1, 13: 1, 21: 1},
 }
 """1-based iparm entries set per matrix type: MKL's documented defaults (10: pivot perturbation
-1e-13 / 1e-8; 21 = 1 for the symmetric type: Bunch-Kaufman 1x1 and 2x2 pivots) with scaling and weighted matching on (11 = 13 = 1; MKL recommends them for
-saddle-point symmetric indefinite systems, whose residual is 1e-10 without them). iparm(8), the
-iterative refinement, is :attr:`PardisoSolver.Parameters.refinement_steps`."""
+1e-13 for the unsymmetric type; 21 = 1 for the symmetric type: Bunch-Kaufman 1x1 and 2x2 pivots)
+but the symmetric type's perturbation (:data:`SYMMETRIC_PIVOT_PERTURBATION`), with scaling and
+weighted matching on (11 = 13 = 1; MKL recommends them for saddle-point symmetric indefinite
+systems, whose residual is 1e-10 without them). iparm(8), the iterative refinement, is
+:attr:`PardisoSolver.Parameters.refinement_steps`."""
 _IPARM_REFINEMENT = 8
 """1-based iparm entry of the maximum number of iterative refinement steps."""
 MAX_REFINEMENT_STEPS = 10
