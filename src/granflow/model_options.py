@@ -46,7 +46,7 @@ DEFAULT_BAND_MARGIN = 3
 """Default :attr:`AmbientParams.velocity_band_margin` [cells] (since session 25; 0 before): the
 velocity band and the pressure unknowns are kept across steps, built 3 cells wider (Lagree
 column at 256^2: the pattern rebuilt at 22 of 553 steps; docs/solver.md "Keeping the pattern")."""
-ANALYSIS_STEPS = 16
+ANALYSIS_STEPS = 64
 """Steps over which PARDISO keeps an analysis (ordering, scaling, matching) of an unchanged pattern
 when :attr:`AmbientParams.velocity_band_margin` > 0. Its scaling and matching are those of the
 matrix it analysed: kept longer, the factorisation and the solve grow (Lagree column, 256^2, one
@@ -54,7 +54,11 @@ solve per step, margin 3, single runs of a scratch version that forgot the analy
 step: k = 1 / 2 / 4 / 8 took 31.0 / 27.0 / 23.0 / 25.0 s; docs/solver.md "Keeping the pattern").
 16 since session 24, when isolated traces stopped rebuilding the region (:data:`PHI_STRANDED`) and
 the window, not the pattern, ended most analyses: user CPU 4 -> 16 at 128^2 4.63 / 4.68 / 4.51 ->
-4.39 / 4.54 / 4.36 s, at 256^2 16.03 / 16.08 -> 15.72 / 15.35 s (alternated, same fronts)."""
+4.39 / 4.54 / 4.36 s, at 256^2 16.03 / 16.08 -> 15.72 / 15.35 s (alternated, same fronts). 64 since
+session 27, once the pivot perturbation of 1e-6 (:data:`granflow.solvers.pardiso.SYMMETRIC_PIVOT_PERTURBATION`)
+kept the residuals of the older analyses at ~1e-13 (at 1e-8 a 64-step window put the 256^2
+residuals at the 1e-8 limit): analyses 29 -> 11 at 128^2 and 42 -> 24 at 256^2; user CPU at 128^2
+median 6.09 -> 5.68 s (5 alternated pairs on a noisy host, per-pair ratios 0.88-1.03)."""
 PHI_TRACE = 1.0e-6
 """Cells with ``phi > PHI_TRACE phi_max`` hold grains for the velocity band
 (:attr:`AmbientParams.velocity_band`); below it, trace material left by numerical diffusion."""
