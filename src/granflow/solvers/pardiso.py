@@ -173,7 +173,8 @@ class PardisoSolver(LinearSolver):
             an earlier step's matrix are reused (a solve whose residual then exceeds
             :data:`RESIDUAL_LIMIT` is first redone with a fresh analysis); :meth:`forget` ends the
             window (a checkpoint calls it, so that a restart and the continued run agree bit for
-            bit). Such solves leave relative residuals up to ~1e-9 (1e-15 with a fresh
+            bit). Such solves leave relative residuals up to ~1e-12 with
+            :data:`SYMMETRIC_PIVOT_PERTURBATION` (~1e-8 with MKL's default; 1e-15 with a fresh
             analysis; MKL's perturbed pivots); they are not refined (up to session 25 one
             refinement solve a step brought them to 1e-13, ~9 % of a 128² run): the energy budget
             books the solve's error instead (``linear_solve``, :class:`granflow.diagnostics.EnergyBudget`).
