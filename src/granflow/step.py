@@ -187,7 +187,7 @@ def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
     iso = (model.interface_band(phi, model.isochoric_interface).ravel()
            if model.isochoric_interface else None)
     phi_f = model.dual_mean(phi)  # (shared: inertia, gravity weight, the consistent transport's mass)
-    rho_n = model.inertia_density(phi, phi_f if model.advection is mom.Advection.CONSISTENT else None)
+    rho_n = model.inertia_density(phi, phi_f)
     window = material_window(model.grid, state.c, phi) if state.c is not None else None
     fluxes_n = (model.transport_fluxes(phi, state.vel, dt, state.c, window)
                 if model.consistent_gravity or model.advection is mom.Advection.CONSISTENT else None)
@@ -357,7 +357,7 @@ def solve_error(K, sol, rhs, layout: SaddleLayout, gas: bool, error=None) -> dic
     """The last solve's error ``r = K x - b`` on the velocity rows (every unknown, 0 off the band)
     and on the gas rows (if ``gas``): :attr:`Implicit.residual_u`, :attr:`Implicit.residual_gas`.
     ``error``: that ``r`` if the solver computed it (:attr:`granflow.solvers.SolveInfo.error`)."""
-    r = K @ sol - rhs if error is None or error.shape != rhs.shape else error
+    r = K @ sol - rhs if error is None else error
     return {"residual_u": layout.velocity(r), "residual_gas": layout.gas(r) if gas else None}
 
 

@@ -30,8 +30,8 @@ def test_an_inexact_solve_is_booked_and_the_split_stays_exact(monkeypatch, gas):
     solve = step._solve
 
     def inexact(*args, **kw):
-        sol, its, _ = solve(*args, **kw)  # (the solver's K x - b is that of the exact solution:
-        return sol * (1.0 + ERROR * rng.standard_normal(sol.size)), its, None  # the step recomputes it)
+        sol, its, _ = solve(*args, **kw)  # the solver's K x - b belongs to the unperturbed solution:
+        return sol * (1.0 + ERROR * rng.standard_normal(sol.size)), its, None  # None, the step recomputes it
 
     monkeypatch.setattr(step, "_solve", inexact)
     g = Grid(nx=40, nz=15, Lx=0.4, Lz=0.15)

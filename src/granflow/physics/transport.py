@@ -179,7 +179,7 @@ def cfl_number(grid: Grid, vel, dt: float, cells=None) -> float:
         a_w, a_e, a_z = face_rates(grid, 1.0)
         rate = (np.maximum(np.abs(u[:-1, :]) * np.maximum(a_w, 1.0 / grid.dx),
                            np.abs(u[1:, :]) * a_e) + np.maximum(np.abs(w[:, :-1]), np.abs(w[:, 1:])) * a_z)
-    else:  # (each |.| once, in place: the same values as the expression above)
+    else:  # max(|u_w|, |u_e|)/dx + max(|w_s|, |w_n|)/dz, each |.| taken once, in place
         au, aw = np.abs(u), np.abs(w)
         rate = np.maximum(au[:-1, :], au[1:, :])
         rate /= grid.dx
