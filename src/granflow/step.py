@@ -177,6 +177,9 @@ class Implicit:
     residual_gas: np.ndarray | None = None
     """The same on the scaled gas rows of the wet cells (``-1/p_atm`` times the gas equation,
     :meth:`granflow.physics.coupling.GasSystem.scaled_rhs`) [s^-1], else None."""
+    div_u: np.ndarray | None = None
+    """``divergence @ u`` of the returned ``u``, per cell [s^-1] (the active set's test computed
+    it; the dilatancy work of :func:`granflow.step_energy.energy_terms` reuses it)."""
 
 
 def explicit_stage(model, state, dt: float, tim: dict) -> Explicit:
@@ -419,7 +422,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
             p_f_new = ex.gas_sys.expand(layout.gas(sol))
         eta_last = (eta_c, eta_n)
         to_free = act & (p_new < 0.0)
-        to_act = free & (model.divergence @ u_new < coef.b)
+        to_act = free & ((div_u := model.divergence @ u_new) < coef.b)
         if fixed_free is not None:
             to_act &= ~fixed_free
         n_change = int(np.count_nonzero(to_free) + np.count_nonzero(to_act))
@@ -439,7 +442,7 @@ def implicit_stage(model, state, dt: float, ex: Explicit, tim: dict) -> Implicit
     dilation = None if ex.thin is None else np.where(ex.thin, coef.b - coef.C * ex.p_fric, 0.0)
     return Implicit(u=u_k, p=p_k, p_solve=p_solve, p_f=p_f_new, free=free, eta=eta_last,
                     rho_k=rho_k, flux_div=flux_div, sweeps=sweeps, rel=rel, converged=converged,
-                    changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation,
+                    changes=changes, n_negative_Z=n_negz, krylov=krylov, dilation=dilation, div_u=div_u,
                     **solve_error(K, sol, rhs, layout, ex.gas_sys is not None, error))
 
 
