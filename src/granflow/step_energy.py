@@ -31,8 +31,7 @@ def energy_terms(model, state, dt: float, ex, im) -> dict:
     else:
         adv_pow = dV * float((ex.rho_n * ex.adv) @ im.u)
     return dict(dissipation_yield=model.dissipation(im.u, *im.eta),
-                dissipation_dilatancy=-dV * float(model.on_cells(im.p_solve)
-                                                  @ (model.divergence @ im.u if im.div_u is None else im.div_u)),
+                dissipation_dilatancy=-dV * float(model.on_cells(im.p_solve) @ im.div_u),
                 inertia_dissipation=0.5 * dV * float(model.on_unknowns(ex.rho_n) @ (du * du)) / dt,
                 advection_power=adv_pow,
                 gravity_power=dV * float(model.on_unknowns(ex.f_g - ex.drag * im.u) @ im.u) + src_drag,
